@@ -1,0 +1,98 @@
+// The backend edge: one interface, one virtual call per ray, chosen by name.
+#pragma once
+
+#include <cstdint>
+#include <memory>
+#include <span>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include "accel/math.h"
+#include "accel/ray.h"
+#include "accel/stats.h"
+
+namespace accel {
+
+enum class GeometryType : uint8_t { Triangles, Spheres };
+
+/// Non-owning view of one geometry. The memory must outlive the accelerator (Embree
+/// shares it without copying).
+///  - Triangles: `positions` holds `num_vertices` Vec3f; `indices` holds 3*num_prims
+///    vertex indices. The positions buffer must be readable for 4 bytes past the last
+///    vertex (Embree reads vertices with 16-byte loads); scenes::Mesh guarantees it.
+///  - Spheres: `spheres` holds num_prims (centre.xyz, radius) quadruples; other fields
+///    unused.
+struct GeometryView {
+    GeometryType type = GeometryType::Triangles;
+    const Vec3f* positions = nullptr;
+    uint32_t num_vertices = 0;
+    const uint32_t* indices = nullptr;
+    const float* spheres = nullptr;
+    uint32_t num_prims = 0;
+};
+
+enum class TriangleTest : uint8_t { Fast, Watertight };  // Möller–Trumbore | Woop 2013
+enum class BvhSplit : uint8_t { Midpoint, Sah };
+enum class EmbreeQuality : uint8_t { Low, Medium, High };
+
+struct AccelOptions {
+    TriangleTest triangle = TriangleTest::Fast;
+    BvhSplit split = BvhSplit::Sah;
+    uint32_t leaf_size = 4;          ///< maximum primitives per leaf (custom BVH)
+    EmbreeQuality embree_quality = EmbreeQuality::High;
+    bool embree_robust = false;
+    /// Embree counting mode: triangles become a user geometry tested by our own
+    /// intersector, so Embree's primitive tests per ray are counted on our terms.
+    bool embree_count = false;
+    int build_threads = 0;           ///< 0 = all cores
+};
+
+/// Facts about a built accelerator, for the summary and the benchmarks.
+struct BuildInfo {
+    std::string backend;       ///< e.g. "custom(sah, watertight)"
+    uint64_t primitives = 0;   ///< primitives actually inserted
+    uint64_t dropped = 0;      ///< degenerate primitives dropped at build time
+    uint64_t nodes = 0;        ///< interior + leaf nodes (0 if not applicable)
+    uint64_t leaves = 0;
+    uint32_t depth = 0;
+    double sah_cost = 0.0;     ///< SAH cost of the tree (custom BVH), 0 if unknown
+    uint64_t bytes = 0;        ///< memory owned by the accelerator
+    double build_seconds = 0.0;
+    bool counts_nodes = false; ///< nodes_visited is meaningful for this backend
+    bool counts_prims = true;  ///< prim_tests is meaningful for this backend
+};
+
+class Accelerator {
+public:
+    virtual ~Accelerator() = default;
+
+    /// Closest hit with t in [ray.t_min, ray.t_max]. On a hit fills `hit` and returns
+    /// true; on a miss leaves `hit` untouched and returns false.
+    virtual bool intersect(const Ray& ray, Hit& hit, TraceStats& stats) const = 0;
+
+    /// Any hit with t in [ray.t_min, ray.t_max]; may stop at the first one found.
+    virtual bool occluded(const Ray& ray, TraceStats& stats) const = 0;
+
+    virtual const BuildInfo& info() const = 0;
+
+    /// Union of all primitive bounds.
+    virtual Bounds3f bounds() const = 0;
+};
+
+/// Thrown by backends for unusable input or options (unknown backend, Embree device
+/// errors). Tools turn it into a message and exit status 2.
+class AccelError : public std::runtime_error {
+public:
+    using std::runtime_error::runtime_error;
+};
+
+/// Backend names: "naive", "custom", "embree".
+std::unique_ptr<Accelerator> create_accelerator(const std::string& name,
+                                                std::span<const GeometryView> geometry,
+                                                const AccelOptions& options);
+
+/// Backends compiled into this build, in a stable order.
+std::vector<std::string> available_backends();
+
+}  // namespace accel

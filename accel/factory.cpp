@@ -1,0 +1,31 @@
+#include "accel/accelerator.h"
+#include "accel/bvh/bvh.h"
+#include "accel/naive/naive.h"
+#ifdef PT_HAVE_EMBREE
+#include "accel/embree/embree.h"
+#endif
+
+namespace accel {
+
+std::vector<std::string> available_backends() {
+    std::vector<std::string> names{"naive", "custom"};
+#ifdef PT_HAVE_EMBREE
+    names.push_back("embree");
+#endif
+    return names;
+}
+
+std::unique_ptr<Accelerator> create_accelerator(const std::string& name,
+                                                std::span<const GeometryView> geometry,
+                                                const AccelOptions& options) {
+    if (name == "naive") return make_naive(geometry, options);
+    if (name == "custom") return make_bvh(geometry, options);
+#ifdef PT_HAVE_EMBREE
+    if (name == "embree") return make_embree(geometry, options);
+#else
+    if (name == "embree") throw AccelError("this build has no Embree (PT_ENABLE_EMBREE=OFF)");
+#endif
+    throw AccelError("unknown accelerator '" + name + "' (expected naive, custom or embree)");
+}
+
+}  // namespace accel

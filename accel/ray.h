@@ -1,0 +1,38 @@
+// The one Ray/Hit vocabulary shared by every backend and every integrator.
+#pragma once
+
+#include <cstdint>
+
+#include "accel/math.h"
+
+namespace accel {
+
+/// Sentinel for "no geometry / no primitive", as Embree's RTC_INVALID_GEOMETRY_ID.
+inline constexpr uint32_t kInvalidId = 0xFFFFFFFFu;
+
+/// A ray segment org + t * dir, t in [t_min, t_max]. `dir` need not be normalised;
+/// t is measured in units of |dir|.
+struct Ray {
+    Vec3f org;
+    Vec3f dir;
+    float t_min = 0.0f;
+    float t_max = kInfinity;
+};
+
+/// Closest-hit record. Kept small (like mitsuba's PreliminaryIntersection); the renderer
+/// rebuilds shading normals and texture coordinates from the scene using ids and (u, v).
+struct Hit {
+    float t = kInfinity;
+    /// Barycentrics: the hit point is (1-u-v)*v0 + u*v1 + v*v2 for triangles.
+    /// For spheres, u and v are unused (0).
+    float u = 0.0f, v = 0.0f;
+    uint32_t geom_id = kInvalidId;  ///< index of the GeometryView given at build time
+    uint32_t prim_id = kInvalidId;  ///< triangle or sphere index inside that geometry
+    /// Geometric normal, unnormalised. Triangles: cross(v1-v0, v2-v0) (follows winding).
+    /// Spheres: hit point - centre (outward).
+    Vec3f ng;
+
+    bool valid() const { return geom_id != kInvalidId; }
+};
+
+}  // namespace accel
