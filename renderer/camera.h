@@ -1,0 +1,59 @@
+// Pinhole camera in the course's convention: the sensor plane lies one unit down -Z in
+// camera space, spanning [-tan(hfov/2), tan(hfov/2)] x [-tan(vfov/2), tan(vfov/2)].
+#pragma once
+
+#include <optional>
+#include <string>
+
+#include "accel/ray.h"
+#include "scenes/scene.h"
+
+namespace renderer {
+
+using accel::Vec3f;
+
+enum class CameraMode { Auto, Course, File };
+
+/// Command-line overrides; unset fields keep what the mode chose.
+struct CameraOverrides {
+    std::optional<Vec3f> position, target, up;
+    std::optional<float> hfov_deg;
+};
+
+class Camera {
+public:
+    Camera() = default;
+    /// Looks from `position` at `target`; fovs in degrees.
+    Camera(const Vec3f& position, const Vec3f& target, const Vec3f& up, float hfov_deg,
+           float vfov_deg);
+
+    /// Ray through image point (x, y) in [0,1]^2, y = 0 at the TOP row. The direction is
+    /// normalised so that t is a distance.
+    accel::Ray generate_ray(float x, float y) const;
+
+    Vec3f position() const { return pos_; }
+    Vec3f forward() const { return fwd_; }
+    float hfov_deg() const;
+    float vfov_deg() const;
+
+private:
+    Vec3f pos_, right_, up_, fwd_;
+    float tan_h_ = 1, tan_v_ = 1;
+};
+
+struct CameraSetup {
+    Camera camera;
+    std::string description;  ///< one line for stderr: which camera was used and why
+};
+
+/// Chooses the camera for a W x H image:
+///  - Course (default for CS184 .dae): the course application's framing (see
+///    ../shared/scenes/README.md): look at the bounds' centre from 1.5 x the diagonal,
+///    along the camera node's transform applied to (0,0,-1); an 800x600 window whose
+///    sensor distance is kept, so W x H is its central W x H pixels.
+///  - File (default for glTF): the camera node as written.
+///  - No camera in the file: frame the scene's bounds from the front.
+CameraSetup make_camera(const scenes::Scene& scene, CameraMode mode, int width, int height,
+                        const CameraOverrides& overrides = {});
+
+}  // namespace renderer

@@ -1,0 +1,118 @@
+#include "renderer/image.h"
+
+#include <OpenColorIO/OpenColorIO.h>
+#include <OpenImageIO/imageio.h>
+#include <fmt/format.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <cctype>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <sstream>
+#include <stdexcept>
+
+#include "renderer/ocio_config.h"  // generated: kProjectOcioConfig
+
+namespace OCIO = OCIO_NAMESPACE;
+
+namespace renderer {
+
+namespace {
+std::string lower_ext(const std::string& path) {
+    std::string e = std::filesystem::path(path).extension().string();
+    std::transform(e.begin(), e.end(), e.begin(), [](unsigned char c) { return char(std::tolower(c)); });
+    return e;
+}
+
+/// Applies the display/view transform of the chosen OCIO config to packed RGB.
+void display_transform(std::vector<float>& rgb, int width, int height, const WriteOptions& o) {
+    try {
+        OCIO::ConstConfigRcPtr config;
+        if (o.ocio_config.empty()) {
+            std::istringstream in(kProjectOcioConfig);
+            config = OCIO::Config::CreateFromStream(in);
+        } else {
+            config = OCIO::Config::CreateFromFile(o.ocio_config.c_str());
+        }
+        const char* display = o.display.empty() ? config->getDefaultDisplay() : o.display.c_str();
+        const char* view = o.view.empty() ? config->getDefaultView(display) : o.view.c_str();
+        auto proc = config->getProcessor(OCIO::ROLE_SCENE_LINEAR, display, view,
+                                         OCIO::TRANSFORM_DIR_FORWARD);
+        OCIO::PackedImageDesc desc(rgb.data(), width, height, 3);
+        proc->getDefaultCPUProcessor()->apply(desc);
+    } catch (const OCIO::Exception& e) {
+        throw std::runtime_error(fmt::format("OpenColorIO: {}", e.what()));
+    }
+}
+}  // namespace
+
+bool is_float_format(const std::string& path) { return lower_ext(path) == ".exr"; }
+
+void write_image(const std::string& path, const Image& image, const WriteOptions& o) {
+    namespace fs = std::filesystem;
+    if (image.width <= 0 || image.height <= 0 || image.nchannels() < 3)
+        throw std::runtime_error(fmt::format("{}: nothing to write", path));
+    const bool is_float = is_float_format(path);
+    const int w = image.width, h = image.height;
+
+    std::vector<float> data;
+    OIIO::ImageSpec spec;
+    if (is_float) {
+        spec = OIIO::ImageSpec(w, h, int(image.nchannels()), OIIO::TypeDesc::FLOAT);
+        spec.channelnames = image.channels;
+        spec.attribute("compression", "zip");
+        data = image.pixels;
+    } else {
+        data.resize(size_t(w) * h * 3);
+        for (size_t i = 0, n = size_t(w) * h; i < n; ++i)
+            for (int c = 0; c < 3; ++c) data[i * 3 + c] = image.pixels[i * image.nchannels() + c];
+        if (o.encoding == Encoding::SceneLinear) display_transform(data, w, h, o);
+        spec = OIIO::ImageSpec(w, h, 3, OIIO::TypeDesc::UINT8);
+    }
+    spec.attribute("Software", "pathtracer");
+    for (const auto& [k, v] : o.attributes) spec.attribute(k, v);
+
+    // Same folder (so rename is atomic), same extension (OIIO picks the format by it).
+    const fs::path target(path);
+    const fs::path tmp = target.parent_path() /
+                         fmt::format(".{}.tmp{}{}", target.stem().string(), ::getpid(),
+                                     target.extension().string());
+    auto out = OIIO::ImageOutput::create(tmp.string());
+    if (!out)
+        throw std::runtime_error(fmt::format("{}: no image writer for this extension ({})", path,
+                                             OIIO::geterror()));
+    bool ok = out->open(tmp.string(), spec) &&
+              out->write_image(OIIO::TypeDesc::FLOAT, data.data()) && out->close();
+    if (!ok) {
+        std::string err = out->geterror();
+        std::error_code ec;
+        fs::remove(tmp, ec);
+        throw std::runtime_error(fmt::format("{}: cannot write: {}", path, err));
+    }
+    std::error_code ec;
+    fs::rename(tmp, target, ec);
+    if (ec) {
+        fs::remove(tmp, ec);
+        throw std::runtime_error(fmt::format("{}: cannot rename into place: {}", path, ec.message()));
+    }
+}
+
+Image heat_map(const std::vector<float>& values, int width, int height, float lo, float hi) {
+    Image img(width, height, {"R", "G", "B"});
+    const float range = hi > lo ? hi - lo : 1.0f;
+    for (int y = 0; y < height; ++y)
+        for (int x = 0; x < width; ++x) {
+            float t = std::clamp((values[size_t(y) * width + x] - lo) / range, 0.0f, 1.0f);
+            // Blue -> green over [0, 0.5], green -> red over [0.5, 1].
+            float r = std::clamp(2.0f * t - 1.0f, 0.0f, 1.0f);
+            float b = std::clamp(1.0f - 2.0f * t, 0.0f, 1.0f);
+            float g = 1.0f - r - b;
+            float* p = img.at(x, y);
+            p[0] = r; p[1] = g; p[2] = b;
+        }
+    return img;
+}
+
+}  // namespace renderer

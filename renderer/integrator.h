@@ -1,0 +1,56 @@
+// The integrator interface. Integrators see the scene, the shading bridge and an
+// Accelerator; never which backend it is.
+#pragma once
+
+#include <memory>
+#include <string>
+
+#include "accel/accelerator.h"
+#include "renderer/rng.h"
+#include "renderer/scene_geometry.h"
+#include "scenes/scene.h"
+
+namespace renderer {
+
+using accel::Vec3f;
+
+/// First-hit facts a sample reports for the AOV channels.
+struct AovSample {
+    Vec3f normal;   ///< shading normal at the first hit (0 on a miss)
+    Vec3f albedo;   ///< diffuse albedo at the first hit
+    float depth = 0.0f;  ///< distance to the first hit (0 on a miss)
+};
+
+/// What one camera sample may use: the per-thread statistics and the pixel's stream.
+struct SampleContext {
+    const accel::Accelerator& accel;
+    accel::TraceStats& stats;
+    Rng& rng;
+    AovSample aov;
+};
+
+struct IntegratorSettings {
+    std::string name = "path";  ///< normals | direct | path
+    int light_samples = 1;      ///< -l: samples per area light
+    int max_depth = 5;          ///< -m
+    bool accumulate = true;     ///< -o 1 (accumulate bounces) / -o 0 (exactly -m bounces)
+    bool hemisphere = false;    ///< -H: uniform hemisphere sampling for direct light
+    float rr_continue = 0.65f;  ///< --rr: Russian roulette continuation probability
+    std::string only;           ///< --only=direct|indirect ("" = both)
+};
+
+class Integrator {
+public:
+    virtual ~Integrator() = default;
+    /// Radiance arriving along the camera ray (scene-linear RGB).
+    virtual Vec3f li(const accel::Ray& ray, SampleContext& ctx) const = 0;
+    /// True when li's values are display colours (normal shading), not radiance.
+    virtual bool display_referred() const { return false; }
+};
+
+/// Throws std::invalid_argument naming the integrator when it is unknown or unavailable.
+std::unique_ptr<Integrator> make_integrator(const IntegratorSettings& settings,
+                                            const scenes::Scene& scene,
+                                            const SceneGeometry& geometry);
+
+}  // namespace renderer
