@@ -1,0 +1,655 @@
+// The custom BVH on procedural geometry: structural invariants, agreement with the
+// naive reference (which tests every primitive), statistics, and edge cases.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstring>
+#include <limits>
+#include <random>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "accel/accelerator.h"
+#include "accel/bvh/bvh.h"
+#include "accel/naive/naive.h"
+#include "accel/primitive.h"
+
+namespace {
+
+using namespace accel;
+
+constexpr float kInf = std::numeric_limits<float>::infinity();
+constexpr float kNaN = std::numeric_limits<float>::quiet_NaN();
+
+/// Owns vertex/index storage for a GeometryView (positions padded by one element, as
+/// the GeometryView contract asks).
+struct Mesh {
+    std::vector<Vec3f> pos;
+    std::vector<uint32_t> idx;
+    uint32_t nverts = 0;
+
+    uint32_t add(Vec3f p) {
+        pos.push_back(p);
+        return nverts++;
+    }
+    void tri(uint32_t a, uint32_t b, uint32_t c) { idx.insert(idx.end(), {a, b, c}); }
+    GeometryView view() {
+        if (pos.size() == nverts) pos.push_back(Vec3f(0.0f));  // padding
+        GeometryView v;
+        v.type = GeometryType::Triangles;
+        v.positions = pos.data();
+        v.num_vertices = nverts;
+        v.indices = idx.data();
+        v.num_prims = uint32_t(idx.size() / 3);
+        return v;
+    }
+};
+
+/// UV sphere: shared vertices and edges everywhere, fans at the poles.
+Mesh uv_sphere(int rings, int segs, Vec3f c, float r) {
+    Mesh m;
+    for (int i = 0; i <= rings; ++i) {
+        float th = kPi * float(i) / float(rings);
+        for (int j = 0; j < segs; ++j) {
+            float ph = 2.0f * kPi * float(j) / float(segs);
+            m.add(c + Vec3f(std::sin(th) * std::cos(ph), std::cos(th), std::sin(th) * std::sin(ph)) * r);
+        }
+    }
+    for (int i = 0; i < rings; ++i)
+        for (int j = 0; j < segs; ++j) {
+            uint32_t a = i * segs + j, b = i * segs + (j + 1) % segs;
+            uint32_t c2 = (i + 1) * segs + j, d = (i + 1) * segs + (j + 1) % segs;
+            if (i != 0) m.tri(a, b, d);           // pole rows would be zero-area
+            if (i != rings - 1) m.tri(a, d, c2);
+        }
+    return m;
+}
+
+/// n x n quads in the plane z = z0 with integer vertex coordinates: exactly representable
+/// shared edges, and flat (zero-thickness) leaf boxes whose faces lie on integer planes.
+Mesh grid(int n, float z0 = 0.0f) {
+    Mesh m;
+    for (int y = 0; y <= n; ++y)
+        for (int x = 0; x <= n; ++x) m.add(Vec3f(float(x), float(y), z0));
+    for (int y = 0; y < n; ++y)
+        for (int x = 0; x < n; ++x) {
+            uint32_t a = y * (n + 1) + x, b = a + 1, c = a + (n + 1), d = c + 1;
+            m.tri(a, b, d);
+            m.tri(a, d, c);
+        }
+    return m;
+}
+
+/// Random triangles of size ~`size` in [-1, 1]^3 (overlapping, arbitrary orientation).
+Mesh soup(int n, float size, uint32_t seed) {
+    Mesh m;
+    std::mt19937 rng(seed);
+    std::uniform_real_distribution<float> u(-1.0f, 1.0f);
+    for (int i = 0; i < n; ++i) {
+        Vec3f c(u(rng), u(rng), u(rng));
+        uint32_t a = m.add(c + Vec3f(u(rng), u(rng), u(rng)) * size);
+        uint32_t b = m.add(c + Vec3f(u(rng), u(rng), u(rng)) * size);
+        uint32_t d = m.add(c + Vec3f(u(rng), u(rng), u(rng)) * size);
+        m.tri(a, b, d);
+    }
+    return m;
+}
+
+struct Spheres {
+    std::vector<float> data;
+    GeometryView view() {
+        GeometryView v;
+        v.type = GeometryType::Spheres;
+        v.spheres = data.data();
+        v.num_prims = uint32_t(data.size() / 4);
+        return v;
+    }
+};
+
+Spheres random_spheres(int n, uint32_t seed) {
+    Spheres s;
+    std::mt19937 rng(seed);
+    std::uniform_real_distribution<float> u(-1.0f, 1.0f), r(0.02f, 0.2f);
+    for (int i = 0; i < n; ++i) s.data.insert(s.data.end(), {u(rng), u(rng), u(rng), r(rng)});
+    return s;
+}
+
+AccelOptions options(BvhSplit split, TriangleTest test, uint32_t leaf_size = 4) {
+    AccelOptions o;
+    o.split = split;
+    o.triangle = test;
+    o.leaf_size = leaf_size;
+    return o;
+}
+
+std::string name(BvhSplit s, TriangleTest t) {
+    return std::string(s == BvhSplit::Sah ? "sah" : "midpoint") + "/" +
+           (t == TriangleTest::Fast ? "fast" : "watertight");
+}
+
+/// Checks the tree and that BuildInfo tells the same story as the tree.
+void expect_valid(const Accelerator& a, uint32_t leaf_size, uint64_t expected_prims) {
+    auto rep = inspect_bvh(a);
+    ASSERT_TRUE(rep.has_value());
+    for (const std::string& e : rep->errors) ADD_FAILURE() << e;
+    EXPECT_TRUE(rep->ok());
+    EXPECT_TRUE(rep->prims_once);
+    EXPECT_TRUE(rep->children_inside);
+    EXPECT_TRUE(rep->leaves_contain_prims);
+    EXPECT_TRUE(rep->leaf_size_ok);
+    EXPECT_LE(rep->max_leaf_size, leaf_size);
+    EXPECT_EQ(rep->leaf_size_limit, leaf_size);
+    EXPECT_EQ(rep->primitives, expected_prims);
+    const BuildInfo& info = a.info();
+    EXPECT_EQ(info.primitives, expected_prims);
+    EXPECT_EQ(info.nodes, rep->nodes);
+    EXPECT_EQ(info.leaves, rep->leaves);
+    EXPECT_EQ(info.depth, rep->depth);
+    EXPECT_DOUBLE_EQ(info.sah_cost, rep->sah_cost);
+    EXPECT_TRUE(info.counts_nodes);
+    EXPECT_TRUE(info.counts_prims);
+    EXPECT_GE(info.build_seconds, 0.0);
+    if (expected_prims) {
+        EXPECT_EQ(rep->nodes, 2 * rep->leaves - 1);  // binary tree, no empty children
+        EXPECT_GT(info.bytes, rep->nodes * 32);
+        EXPECT_GE(rep->sah_cost, 1.0);  // at least the root's own cost
+    }
+}
+
+/// Compares one ray's result between the reference and the BVH. Same primitive: t, u,
+/// v, normal bit-identical (the same intersector ran on the same vertices). Different
+/// primitive: only allowed for an exact or near tie (two primitives at the same
+/// distance, e.g. a ray through a shared edge), and the BVH's hit must be a real one.
+struct Compare {
+    std::span<const GeometryView> geom;
+    TriangleTest test;
+    int mismatches = 0, ties = 0, hits = 0;
+
+    void check(const Accelerator& ref, const Accelerator& bvh, const Ray& ray) {
+        TraceStats s1, s2;
+        Hit a, b;
+        const bool ha = ref.intersect(ray, a, s1);
+        const bool hb = bvh.intersect(ray, b, s2);
+        const bool oa = ref.occluded(ray, s1);
+        const bool ob = bvh.occluded(ray, s2);
+        auto where = [&] {
+            char buf[256];
+            std::snprintf(buf, sizeof buf, "org (%a %a %a) dir (%a %a %a) t [%g %g]", ray.org.x,
+                          ray.org.y, ray.org.z, ray.dir.x, ray.dir.y, ray.dir.z, ray.t_min,
+                          ray.t_max);
+            return std::string(buf);
+        };
+        if (ha != hb || oa != ob || ha != oa || hb != ob) {
+            if (++mismatches < 5)
+                ADD_FAILURE() << "hit/miss differs: naive " << ha << "/" << oa << " bvh " << hb
+                              << "/" << ob << " for " << where();
+            return;
+        }
+        if (!ha) {
+            EXPECT_FALSE(b.valid());  // untouched
+            return;
+        }
+        ++hits;
+        EXPECT_GE(b.t, ray.t_min) << where();
+        EXPECT_LE(b.t, ray.t_max) << where();
+        if (a.geom_id == b.geom_id && a.prim_id == b.prim_id) {
+            if (std::memcmp(&a.t, &b.t, sizeof(float)) != 0 || a.u != b.u || a.v != b.v ||
+                !(a.ng == b.ng)) {
+                if (++mismatches < 5) ADD_FAILURE() << "same prim, different hit for " << where();
+            }
+            return;
+        }
+        ++ties;
+        const float tol = 1e-5f * std::max(1.0f, std::abs(a.t));
+        if (!(std::abs(a.t - b.t) <= tol)) {
+            if (++mismatches < 5)
+                ADD_FAILURE() << "closest hit differs: naive prim " << a.prim_id << " t " << a.t
+                              << ", bvh prim " << b.prim_id << " t " << b.t << " for " << where();
+            return;
+        }
+        // The BVH's primitive, tested alone with the shared intersector, gives its t.
+        Hit solo;
+        solo.t = ray.t_max;
+        RayContext rc(ray, test);
+        bool ok = test == TriangleTest::Watertight
+                      ? intersect_primitive<TriangleTest::Watertight>(geom[b.geom_id], b.geom_id,
+                                                                      b.prim_id, rc, solo)
+                      : intersect_primitive<TriangleTest::Fast>(geom[b.geom_id], b.geom_id,
+                                                                b.prim_id, rc, solo);
+        EXPECT_TRUE(ok && solo.t == b.t) << "bvh reported a hit its primitive does not have";
+    }
+};
+
+/// A bag of adversarial rays for geometry with bounds `bb`.
+std::vector<Ray> make_rays(const Bounds3f& bb, std::span<const Vec3f> targets, uint32_t seed,
+                           int n_random) {
+    std::vector<Ray> rays;
+    std::mt19937 rng(seed);
+    std::uniform_real_distribution<float> u01(0.0f, 1.0f), u11(-1.0f, 1.0f);
+    const Vec3f c = bb.center(), d = bb.diagonal();
+    const float radius = length(d) + 1.0f;
+    auto inside = [&] {
+        return Vec3f(bb.lo.x + u01(rng) * d.x, bb.lo.y + u01(rng) * d.y, bb.lo.z + u01(rng) * d.z);
+    };
+    auto unit = [&] {
+        for (;;) {
+            Vec3f v(u11(rng), u11(rng), u11(rng));
+            if (dot(v, v) > 1e-3f && dot(v, v) <= 1.0f) return normalize(v);
+        }
+    };
+    // Random rays from inside the bounds, in random directions.
+    for (int i = 0; i < n_random; ++i) rays.push_back({inside(), unit(), 0.0f, kInf});
+    // From outside, aimed at random points inside (unnormalised directions too).
+    for (int i = 0; i < n_random; ++i) {
+        Vec3f o = c + unit() * radius;
+        rays.push_back({o, (inside() - o) * (0.5f + u01(rng)), 0.0f, kInf});
+    }
+    // Axis-parallel rays with every mix of +0 / -0 in the other components.
+    for (int i = 0; i < n_random / 4; ++i) {
+        Vec3f p = inside();
+        int axis = i % 3;
+        for (int s = 0; s < 8; ++s) {
+            Vec3f dir(s & 1 ? -0.0f : 0.0f, s & 2 ? -0.0f : 0.0f, s & 4 ? -0.0f : 0.0f);
+            dir[axis] = s & 1 ? -1.0f : 1.0f;
+            Vec3f o = p;
+            o[axis] = s & 1 ? bb.hi[axis] + 1.0f : bb.lo[axis] - 1.0f;
+            rays.push_back({o, dir, 0.0f, kInf});
+            rays.push_back({p, dir, 0.0f, kInf});  // from inside
+        }
+    }
+    // Rays starting exactly on the faces of the root box, pointing inwards or lying in
+    // the face plane (direction component +0 or -0: the 0 * inf = NaN case).
+    for (int i = 0; i < n_random / 4; ++i) {
+        int axis = i % 3;
+        bool hi = (i / 3) % 2;
+        Vec3f o = inside();
+        o[axis] = hi ? bb.hi[axis] : bb.lo[axis];
+        Vec3f dir = unit();
+        dir[axis] = hi ? -std::abs(dir[axis]) : std::abs(dir[axis]);
+        rays.push_back({o, dir, 0.0f, kInf});
+        dir[axis] = (i & 1) ? -0.0f : 0.0f;
+        rays.push_back({o, dir, 0.0f, kInf});
+    }
+    // Rays through the given points (shared vertices, edge midpoints) from random
+    // outside origins, and some with random t_min / t_max windows.
+    for (size_t i = 0; i < targets.size(); ++i) {
+        Vec3f o = c + unit() * radius;
+        rays.push_back({o, targets[i] - o, 0.0f, kInf});
+        Ray r{o, targets[i] - o, 0.0f, kInf};
+        r.t_min = u01(rng) * 0.9f;
+        r.t_max = r.t_min + u01(rng) * 0.5f;
+        rays.push_back(r);
+        // t_max exactly at the target: the hit (if any) is at t == 1 up to rounding.
+        rays.push_back({o, targets[i] - o, 0.0f, 1.0f});
+    }
+    return rays;
+}
+
+std::vector<Vec3f> mesh_targets(const Mesh& m, size_t max_count) {
+    std::vector<Vec3f> t;
+    const size_t step = std::max<size_t>(1, m.idx.size() / 3 / max_count);
+    for (size_t tri = 0; tri < m.idx.size() / 3; tri += step) {
+        Vec3f a = m.pos[m.idx[3 * tri]], b = m.pos[m.idx[3 * tri + 1]], c = m.pos[m.idx[3 * tri + 2]];
+        t.push_back(a);               // shared vertex
+        t.push_back((a + b) * 0.5f);  // shared edge
+        t.push_back((a + b + c) * (1.0f / 3.0f));
+    }
+    return t;
+}
+
+void agree(std::span<const GeometryView> geom, std::span<const Vec3f> targets, uint32_t seed,
+           int n_random = 400) {
+    for (TriangleTest test : {TriangleTest::Fast, TriangleTest::Watertight}) {
+        auto naive = make_naive(geom, options(BvhSplit::Sah, test));
+        for (BvhSplit split : {BvhSplit::Sah, BvhSplit::Midpoint}) {
+            SCOPED_TRACE(name(split, test));
+            auto bvh = make_bvh(geom, options(split, test));
+            EXPECT_EQ(bvh->info().primitives, naive->info().primitives);
+            EXPECT_EQ(bvh->info().dropped, naive->info().dropped);
+            Compare cmp{geom, test};
+            for (const Ray& r : make_rays(naive->bounds(), targets, seed, n_random))
+                cmp.check(*naive, *bvh, r);
+            EXPECT_EQ(cmp.mismatches, 0);
+            if (naive->info().primitives) {
+                EXPECT_GT(cmp.hits, 0);
+            }
+        }
+    }
+}
+
+// ---------------------------------------------------------------------------------
+
+TEST(BvhInvariants, ProceduralMeshesBothSplitsAndLeafSizes) {
+    Mesh meshes[] = {uv_sphere(40, 60, {0, 0, 0}, 1.0f), grid(30), soup(3000, 0.05f, 1)};
+    for (Mesh& m : meshes) {
+        GeometryView v = m.view();
+        for (BvhSplit split : {BvhSplit::Sah, BvhSplit::Midpoint})
+            for (uint32_t leaf : {1u, 2u, 4u, 8u}) {
+                SCOPED_TRACE(name(split, TriangleTest::Fast) + " leaf " + std::to_string(leaf));
+                auto a = make_bvh({&v, 1}, options(split, TriangleTest::Fast, leaf));
+                expect_valid(*a, leaf, v.num_prims);
+            }
+    }
+}
+
+TEST(BvhInvariants, SahCostLowerThanMidpoint) {
+    Mesh meshes[] = {uv_sphere(60, 90, {0, 0, 0}, 1.0f), soup(5000, 0.05f, 2)};
+    for (Mesh& m : meshes) {
+        GeometryView v = m.view();
+        auto sah = make_bvh({&v, 1}, options(BvhSplit::Sah, TriangleTest::Fast));
+        auto mid = make_bvh({&v, 1}, options(BvhSplit::Midpoint, TriangleTest::Fast));
+        EXPECT_LT(sah->info().sah_cost, mid->info().sah_cost);
+        EXPECT_EQ(sah->info().backend, "custom(sah, fast)");
+        EXPECT_EQ(mid->info().backend, "custom(midpoint, fast)");
+        auto wt = make_bvh({&v, 1}, options(BvhSplit::Midpoint, TriangleTest::Watertight));
+        EXPECT_EQ(wt->info().backend, "custom(midpoint, watertight)");
+    }
+}
+
+TEST(BvhInvariants, CoincidentCentroidsStillRespectLeafSize) {
+    // 100 copies of one triangle plus 100 of another: no plane separates the copies.
+    Mesh m;
+    uint32_t a = m.add({0, 0, 0}), b = m.add({1, 0, 0}), c = m.add({0, 1, 0});
+    uint32_t d = m.add({5, 5, 5}), e = m.add({6, 5, 5}), f = m.add({5, 6, 5});
+    for (int i = 0; i < 100; ++i) m.tri(a, b, c), m.tri(d, e, f);
+    GeometryView v = m.view();
+    for (BvhSplit split : {BvhSplit::Sah, BvhSplit::Midpoint}) {
+        auto acc = make_bvh({&v, 1}, options(split, TriangleTest::Fast, 4));
+        expect_valid(*acc, 4, 200);
+        std::vector<Vec3f> targets{{0.25f, 0.25f, 0.0f}, {5.25f, 5.25f, 5.0f}};
+        agree({&v, 1}, targets, 3, 50);
+    }
+}
+
+TEST(BvhInvariants, DepthBoundedOnExponentialSpacing) {
+    // Triangles at x = 2^k: every midpoint split peels off one triangle, so without the
+    // depth guard the tree would be as deep as the primitive count.
+    Mesh m;
+    for (int k = -120; k < 120; ++k) {
+        float x = std::ldexp(1.0f, k);
+        uint32_t a = m.add({x, 0, 0}), b = m.add({x, 1, 0}), c = m.add({x, 0, 1});
+        m.tri(a, b, c);
+    }
+    GeometryView v = m.view();
+    for (BvhSplit split : {BvhSplit::Sah, BvhSplit::Midpoint}) {
+        auto acc = make_bvh({&v, 1}, options(split, TriangleTest::Fast, 1));
+        expect_valid(*acc, 1, 240);
+        EXPECT_LE(acc->info().depth, 128u);
+    }
+    std::vector<Vec3f> targets;
+    for (int k = -120; k < 120; k += 7) targets.push_back({std::ldexp(1.0f, k), 0.25f, 0.25f});
+    agree({&v, 1}, targets, 4, 100);
+}
+
+TEST(BvhInvariants, BuildIsIndependentOfThreadCount) {
+    Mesh m = soup(60000, 0.02f, 5);  // large enough for parallel binning and recursion
+    GeometryView v = m.view();
+    AccelOptions one = options(BvhSplit::Sah, TriangleTest::Fast);
+    one.build_threads = 1;
+    AccelOptions all = one;
+    all.build_threads = 0;
+    auto a = make_bvh({&v, 1}, one);
+    auto b = make_bvh({&v, 1}, all);
+    expect_valid(*a, 4, v.num_prims);
+    expect_valid(*b, 4, v.num_prims);
+    EXPECT_EQ(a->info().nodes, b->info().nodes);
+    EXPECT_EQ(a->info().sah_cost, b->info().sah_cost);
+}
+
+TEST(BvhAgreement, UvSphere) {
+    Mesh m = uv_sphere(24, 36, {0.1f, -0.2f, 0.3f}, 1.5f);
+    GeometryView v = m.view();
+    agree({&v, 1}, mesh_targets(m, 300), 10);
+}
+
+TEST(BvhAgreement, GridWithSharedEdgesAndFlatBoxes) {
+    Mesh m = grid(16);
+    GeometryView v = m.view();
+    auto targets = mesh_targets(m, 300);
+    agree({&v, 1}, targets, 11);
+    // Rays lying in the planes x = k (the faces of leaf boxes), with dir.x = +0 / -0,
+    // coming down onto the grid and crossing shared edges.
+    auto naive = make_naive({&v, 1}, {});
+    for (TriangleTest test : {TriangleTest::Fast, TriangleTest::Watertight})
+        for (BvhSplit split : {BvhSplit::Sah, BvhSplit::Midpoint}) {
+            SCOPED_TRACE(name(split, test));
+            auto ref = make_naive({&v, 1}, options(split, test));
+            auto bvh = make_bvh({&v, 1}, options(split, test));
+            Compare cmp{{&v, 1}, test};
+            for (int k = 0; k <= 16; ++k)
+                for (float zero : {0.0f, -0.0f})
+                    for (float dy : {-0.5f, 0.0f, 0.37f}) {
+                        cmp.check(*ref, *bvh, Ray{{float(k), 8.0f, 3.0f}, {zero, dy, -1.0f}});
+                        cmp.check(*ref, *bvh, Ray{{8.0f, float(k), 3.0f}, {dy, zero, -1.0f}});
+                        // Grazing: in the grid's own plane z = 0, along a grid line.
+                        cmp.check(*ref, *bvh, Ray{{-1.0f, float(k), 0.0f}, {1.0f, zero, zero}});
+                    }
+            EXPECT_EQ(cmp.mismatches, 0);
+            EXPECT_GT(cmp.hits, 0);
+            // Straight down through every grid vertex: all must hit (both tests count an
+            // edge/vertex hit as a hit), and the BVH agrees.
+            int vertex_hits = 0;
+            TraceStats s;
+            for (int y = 1; y < 16; ++y)
+                for (int x = 1; x < 16; ++x) {
+                    Ray r{{float(x), float(y), 1.0f}, {0.0f, 0.0f, -1.0f}};
+                    Hit h;
+                    vertex_hits += bvh->intersect(r, h, s);
+                    cmp.check(*ref, *bvh, r);
+                }
+            EXPECT_EQ(vertex_hits, 15 * 15);
+            EXPECT_EQ(cmp.mismatches, 0);
+        }
+}
+
+TEST(BvhAgreement, RandomSoup) {
+    Mesh m = soup(4000, 0.1f, 12);
+    GeometryView v = m.view();
+    agree({&v, 1}, mesh_targets(m, 300), 12);
+}
+
+TEST(BvhAgreement, MultipleGeometriesAndSpheres) {
+    Mesh a = uv_sphere(16, 24, {-0.5f, 0, 0}, 0.6f);
+    Mesh b = soup(500, 0.1f, 13);
+    Spheres s = random_spheres(200, 14);
+    GeometryView views[] = {a.view(), b.view(), s.view()};
+    std::vector<Vec3f> targets = mesh_targets(a, 100);
+    for (size_t i = 0; i < s.data.size(); i += 16) targets.push_back({s.data[i], s.data[i + 1], s.data[i + 2]});
+    agree(views, targets, 15);
+}
+
+TEST(BvhAgreement, SpheresOnlyIncludingRaysFromInside) {
+    Spheres s = random_spheres(300, 16);
+    GeometryView v = s.view();
+    std::vector<Vec3f> targets;
+    for (size_t i = 0; i < s.data.size(); i += 4) targets.push_back({s.data[i], s.data[i + 1], s.data[i + 2]});
+    agree({&v, 1}, targets, 16);
+    for (TriangleTest test : {TriangleTest::Fast, TriangleTest::Watertight}) {
+        auto naive = make_naive({&v, 1}, options(BvhSplit::Sah, test));
+        auto bvh = make_bvh({&v, 1}, options(BvhSplit::Sah, test));
+        Compare cmp{{&v, 1}, test};
+        std::mt19937 rng(17);
+        std::uniform_real_distribution<float> u(-1.0f, 1.0f);
+        for (size_t i = 0; i < s.data.size(); i += 4) {
+            Vec3f c{s.data[i], s.data[i + 1], s.data[i + 2]};
+            Ray r{c, normalize(Vec3f(u(rng), u(rng), u(rng))), 0.0f, kInf};
+            cmp.check(*naive, *bvh, r);
+            Hit h;
+            TraceStats st;
+            ASSERT_TRUE(bvh->intersect(r, h, st));  // from the centre: the far root
+            EXPECT_GT(h.t, 0.0f);
+        }
+        EXPECT_EQ(cmp.mismatches, 0);
+    }
+}
+
+TEST(BvhAgreement, TminTmaxRespected) {
+    Mesh m = grid(8);  // z = 0
+    Mesh m2 = grid(8, 1.0f);  // z = 1
+    GeometryView views[] = {m.view(), m2.view()};
+    for (TriangleTest test : {TriangleTest::Fast, TriangleTest::Watertight}) {
+        auto bvh = make_bvh(views, options(BvhSplit::Sah, test));
+        TraceStats s;
+        Hit h;
+        Ray down{{3.3f, 4.6f, 2.0f}, {0, 0, -1}};
+        ASSERT_TRUE(bvh->intersect(down, h, s));
+        EXPECT_EQ(h.t, 1.0f);
+        EXPECT_EQ(h.geom_id, 1u);
+        down.t_min = 1.5f;  // skips the upper grid
+        ASSERT_TRUE(bvh->intersect(down, h, s));
+        EXPECT_EQ(h.t, 2.0f);
+        EXPECT_EQ(h.geom_id, 0u);
+        down.t_max = 1.9f;  // and now nothing is in range
+        Hit untouched;
+        EXPECT_FALSE(bvh->intersect(down, untouched, s));
+        EXPECT_FALSE(untouched.valid());
+        EXPECT_FALSE(bvh->occluded(down, s));
+        down.t_min = 0.0f;
+        down.t_max = 1.0f;  // closed interval: a hit exactly at t_max counts
+        EXPECT_TRUE(bvh->occluded(down, s));
+        ASSERT_TRUE(bvh->intersect(down, h, s));
+        EXPECT_EQ(h.t, 1.0f);
+    }
+}
+
+TEST(BvhAgreement, DegenerateTrianglesDroppedAndCounted) {
+    Mesh m = grid(4);
+    uint32_t a = m.add({0, 0, 1}), b = m.add({1, 1, 1}), c = m.add({2, 2, 1});  // collinear
+    m.tri(a, b, c);
+    m.tri(a, a, b);                                                        // repeated vertex
+    uint32_t n = m.add({kNaN, 0, 0});
+    m.tri(a, n, b);                                                        // NaN vertex
+    uint32_t inf = m.add({kInf, 0, 0});
+    m.tri(inf, a, b);                                                      // infinite vertex
+    m.tri(a, b, 100000);                                                   // out of range
+    GeometryView v = m.view();
+    for (BvhSplit split : {BvhSplit::Sah, BvhSplit::Midpoint}) {
+        auto bvh = make_bvh({&v, 1}, options(split, TriangleTest::Watertight));
+        EXPECT_EQ(bvh->info().dropped, 5u);
+        EXPECT_EQ(bvh->info().primitives, 32u);
+        expect_valid(*bvh, 4, 32);
+        EXPECT_TRUE(std::isfinite(bvh->bounds().surface_area()));
+    }
+    agree({&v, 1}, mesh_targets(m, 100), 18, 100);
+}
+
+TEST(BvhAgreement, EmptyScenesMissEverything) {
+    Mesh degenerate;
+    uint32_t a = degenerate.add({0, 0, 0}), b = degenerate.add({1, 1, 1});
+    degenerate.tri(a, b, b);
+    Mesh none;
+    std::vector<std::vector<GeometryView>> cases = {{}, {none.view()}, {degenerate.view()}};
+    for (auto& geom : cases)
+        for (BvhSplit split : {BvhSplit::Sah, BvhSplit::Midpoint}) {
+            auto bvh = make_bvh(geom, options(split, TriangleTest::Fast));
+            EXPECT_EQ(bvh->info().primitives, 0u);
+            EXPECT_TRUE(bvh->bounds().empty());
+            expect_valid(*bvh, 4, 0);
+            TraceStats s;
+            Hit h;
+            Ray r{{0.5f, 0.5f, -1}, {0, 0, 1}};
+            EXPECT_FALSE(bvh->intersect(r, h, s));
+            EXPECT_FALSE(bvh->occluded(r, s));
+            EXPECT_FALSE(h.valid());
+            EXPECT_EQ(s.rays, 1u);
+            EXPECT_EQ(s.shadow_rays, 1u);
+            EXPECT_EQ(s.prim_tests, 0u);
+        }
+}
+
+TEST(BvhAgreement, InspectRejectsOtherBackends) {
+    Mesh m = grid(2);
+    GeometryView v = m.view();
+    auto naive = make_naive({&v, 1}, {});
+    EXPECT_FALSE(inspect_bvh(*naive).has_value());
+}
+
+// ---------------------------------------------------------------------------------
+
+std::vector<Ray> camera_like_rays(const Bounds3f& bb, int n, uint32_t seed) {
+    std::mt19937 rng(seed);
+    std::uniform_real_distribution<float> u(0.0f, 1.0f);
+    std::vector<Ray> rays;
+    Vec3f eye = bb.center() + Vec3f(0.0f, 0.0f, 3.0f * length(bb.diagonal()));
+    for (int i = 0; i < n; ++i) {
+        Vec3f target(bb.lo.x + u(rng) * (bb.hi.x - bb.lo.x), bb.lo.y + u(rng) * (bb.hi.y - bb.lo.y),
+                     bb.center().z);
+        rays.push_back({eye, normalize(target - eye), 0.0f, kInf});
+    }
+    return rays;
+}
+
+TEST(BvhStats, TestsPerRayFarBelowPrimitiveCount) {
+    Mesh m = uv_sphere(200, 300, {0, 0, 0}, 1.0f);  // ~120k triangles
+    GeometryView v = m.view();
+    auto bvh = make_bvh({&v, 1}, options(BvhSplit::Sah, TriangleTest::Fast));
+    TraceStats s;
+    int hits = 0;
+    for (const Ray& r : camera_like_rays(bvh->bounds(), 20000, 20)) {
+        Hit h;
+        hits += bvh->intersect(r, h, s);
+    }
+    EXPECT_GT(hits, 10000);
+    EXPECT_EQ(s.rays, 20000u);
+    EXPECT_EQ(s.shadow_rays, 0u);
+    const double tpr = s.tests_per_ray(), npr = s.nodes_per_ray();
+    std::printf("uv sphere %u tris: %.2f tests/ray, %.2f nodes/ray, SAH cost %.2f\n",
+                v.num_prims, tpr, npr, bvh->info().sah_cost);
+    EXPECT_LT(tpr, 0.001 * v.num_prims);
+    EXPECT_GT(tpr, 0.0);
+    EXPECT_GE(npr, 1.0);  // the root box is always tested
+}
+
+TEST(BvhStats, CountsFollowTheDocumentedRules) {
+    Mesh m = grid(4);
+    GeometryView v = m.view();
+    auto bvh = make_bvh({&v, 1}, options(BvhSplit::Sah, TriangleTest::Fast));
+    TraceStats s;
+    Hit h;
+    // A ray missing the root box: one box test, no primitive tests.
+    bvh->intersect(Ray{{-5, -5, 1}, {0, 0, 1}}, h, s);
+    EXPECT_EQ(s.rays, 1u);
+    EXPECT_EQ(s.nodes_visited, 1u);
+    EXPECT_EQ(s.prim_tests, 0u);
+    // Box tests come as root + pairs of children.
+    bvh->occluded(Ray{{1.5f, 2.5f, 1}, {0, 0, -1}}, s);
+    EXPECT_EQ(s.shadow_rays, 1u);
+    EXPECT_EQ((s.nodes_visited - 2) % 2, 0u);
+    EXPECT_GE(s.prim_tests, 1u);
+}
+
+TEST(BvhStats, TwoThreadsSumToSingleThreadCounts) {
+    Mesh m = soup(20000, 0.05f, 21);
+    GeometryView v = m.view();
+    for (TriangleTest test : {TriangleTest::Fast, TriangleTest::Watertight}) {
+        auto bvh = make_bvh({&v, 1}, options(BvhSplit::Sah, test));
+        std::vector<Ray> rays = make_rays(bvh->bounds(), {}, 22, 3000);
+        auto run = [&](size_t begin, size_t end, TraceStats& s) {
+            for (size_t i = begin; i < end; ++i) {
+                Hit h;
+                if (i % 2)
+                    bvh->intersect(rays[i], h, s);
+                else
+                    bvh->occluded(rays[i], s);
+            }
+        };
+        TraceStats single;
+        run(0, rays.size(), single);
+        TraceStats t1, t2;
+        std::thread a(run, 0, rays.size() / 2, std::ref(t1));
+        std::thread b(run, rays.size() / 2, rays.size(), std::ref(t2));
+        a.join();
+        b.join();
+        TraceStats sum = t1;
+        sum += t2;
+        EXPECT_EQ(sum.rays, single.rays);
+        EXPECT_EQ(sum.shadow_rays, single.shadow_rays);
+        EXPECT_EQ(sum.nodes_visited, single.nodes_visited);
+        EXPECT_EQ(sum.prim_tests, single.prim_tests);
+        EXPECT_EQ(single.total_rays(), rays.size());
+        EXPECT_GT(single.prim_tests, 0u);
+    }
+}
+
+}  // namespace
