@@ -1,6 +1,1110 @@
-// STUB: replaced by the glTF loader.
+// glTF 2.0 loader on top of tinygltf (parsing only). tinygltf trusts the file: it does
+// not check buffer ranges, indices or node graphs, and its GLB chunk check is off by the
+// chunk header. So every reference and byte range is validated here before it is read,
+// and the raw bytes are pre-checked (GLB header, JSON nesting) before tinygltf sees them.
 #include "scenes/gltf/gltf.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <limits>
+#include <map>
+#include <set>
+#include <sstream>
+#include <utility>
+
+#include <tiny_gltf.h>
+
+#include "scenes/gltf/gltf_image.h"
+
 namespace scenes {
-Scene load_gltf(const std::string& path) { throw SceneError(path + ": glTF loader not built yet"); }
-Scene load_gltf_memory(const void*, size_t, const std::string& name, const std::string&, bool) { throw SceneError(name + ": glTF loader not built yet"); }
+namespace {
+
+using gltf_detail::decode_srgb_texture;
+
+/// Upper bound on vertices + indices summed over all mesh instances. Instancing lets a
+/// small file describe a huge scene; past this it is treated as hostile, not as a scene.
+constexpr uint64_t kMaxSceneElements = uint64_t(1) << 28;
+/// Accessors without a bufferView (all zeros, possibly patched by sparse) are not
+/// bounded by any buffer, so their count needs its own limit.
+constexpr uint64_t kMaxUnbackedCount = uint64_t(1) << 24;
+/// glTF needs about 8 levels; tinygltf converts extras/extensions recursively, so deeply
+/// nested JSON would overflow the stack inside tinygltf.
+constexpr int kMaxJsonDepth = 64;
+constexpr uint64_t kMaxExternalFileBytes = uint64_t(1) << 31;
+
+constexpr double kRadToDeg = 57.295779513082320876798;
+
+const std::set<std::string>& supported_extensions() {
+    static const std::set<std::string> s = {"KHR_lights_punctual",
+                                            "KHR_materials_emissive_strength",
+                                            "KHR_mesh_quantization"};
+    return s;
+}
+
+std::string squote(const std::string& s) { return "'" + s + "'"; }
+
+std::string one_line(std::string s) {
+    while (!s.empty() && (s.back() == '\n' || s.back() == '\r' || s.back() == ' ')) s.pop_back();
+    for (char& c : s)
+        if (c == '\n' || c == '\r') c = ';';
+    return s;
+}
+
+uint32_t le32(const unsigned char* p) {
+    return uint32_t(p[0]) | (uint32_t(p[1]) << 8) | (uint32_t(p[2]) << 16) | (uint32_t(p[3]) << 24);
+}
+
+// ---------------------------------------------------------------------------------------
+// Byte-level pre-checks
+
+/// Returns the GLB length to hand to tinygltf after checking the header and chunk table
+/// against the real byte count.
+uint32_t check_glb(const unsigned char* b, size_t n, const std::string& name) {
+    auto fail = [&](const std::string& what) -> void { throw SceneError(name + ": " + what); };
+    if (n < 12) fail("truncated GLB: " + std::to_string(n) + " bytes, the header alone needs 12");
+    if (std::memcmp(b, "glTF", 4) != 0) fail("not a GLB file (bad magic)");
+    uint32_t version = le32(b + 4), length = le32(b + 8);
+    if (version != 2) fail("GLB container version " + std::to_string(version) + " not supported");
+    if (length > n)
+        fail("truncated GLB: header says " + std::to_string(length) + " bytes, got " +
+             std::to_string(n));
+    if (length < 20) fail("truncated GLB: no room for the JSON chunk header (length " +
+                          std::to_string(length) + ")");
+    uint64_t json_len = le32(b + 12);
+    if (le32(b + 16) != 0x4E4F534Au) fail("GLB chunk 0 is not a JSON chunk");
+    if (json_len == 0) fail("GLB JSON chunk is empty");
+    uint64_t end = 20 + json_len;
+    if (end > length)
+        fail("truncated GLB: JSON chunk of " + std::to_string(json_len) +
+             " bytes runs past the GLB length " + std::to_string(length));
+    if (end < length) {
+        if (length - end < 8)
+            fail("truncated GLB: incomplete chunk header at byte " + std::to_string(end));
+        uint64_t bin_len = le32(b + end);
+        if (le32(b + end + 4) != 0x004E4942u) fail("GLB chunk 1 is not a BIN chunk");
+        if (end + 8 + bin_len > length)
+            fail("truncated GLB: BIN chunk of " + std::to_string(bin_len) +
+                 " bytes runs past the GLB length " + std::to_string(length));
+        if (bin_len < 4 || bin_len % 4 != 0)
+            fail("GLB BIN chunk length " + std::to_string(bin_len) +
+                 " is not a positive multiple of 4");
+    }
+    return length;
+}
+
+bool json_too_deep(const unsigned char* s, size_t n) {
+    int depth = 0;
+    bool in_string = false;
+    for (size_t i = 0; i < n; ++i) {
+        unsigned char c = s[i];
+        if (in_string) {
+            if (c == '\\') ++i;
+            else if (c == '"') in_string = false;
+        } else if (c == '"') {
+            in_string = true;
+        } else if (c == '[' || c == '{') {
+            if (++depth > kMaxJsonDepth) return true;
+        } else if ((c == ']' || c == '}') && depth > 0) {
+            --depth;
+        }
+    }
+    return false;
+}
+
+// ---------------------------------------------------------------------------------------
+// tinygltf callbacks
+
+struct FsContext {
+    std::string base_dir;
+};
+
+bool fs_exists(const std::string& path, void* user) {
+    // tinygltf also looks in the current directory; a file beside the process is not
+    // part of the asset and must not silently stand in for a missing one.
+    const auto* ctx = static_cast<const FsContext*>(user);
+    if (!ctx->base_dir.empty() && path.compare(0, ctx->base_dir.size(), ctx->base_dir) != 0)
+        return false;
+    std::error_code ec;
+    return std::filesystem::is_regular_file(path, ec);
+}
+
+std::string fs_expand(const std::string& path, void*) { return path; }  // no wordexp
+
+bool fs_read(std::vector<unsigned char>* out, std::string* err, const std::string& path, void*) {
+    std::error_code ec;
+    if (!std::filesystem::is_regular_file(path, ec)) {
+        if (err) *err = "not a regular file";
+        return false;
+    }
+    uint64_t size = std::filesystem::file_size(path, ec);
+    if (ec || size > kMaxExternalFileBytes) {
+        if (err) *err = ec ? ec.message() : "file too large";
+        return false;
+    }
+    std::ifstream f(path, std::ios::binary);
+    out->resize(size_t(size));
+    if (!f || (size > 0 && !f.read(reinterpret_cast<char*>(out->data()), std::streamsize(size)))) {
+        if (err) *err = "read failed";
+        return false;
+    }
+    return true;
+}
+
+bool fs_write(std::string*, const std::string&, const std::vector<unsigned char>&, void*) {
+    return false;
+}
+
+/// Keeps the encoded bytes instead of decoding: images are decoded later, only if a
+/// material we model uses them. bufferView images get an unchecked pointer from
+/// tinygltf, so those bytes are not touched here; they are read after validation.
+bool defer_image(tinygltf::Image* image, const int, std::string*, std::string*, int, int,
+                 const unsigned char* bytes, int size, void*) {
+    if (image->bufferView < 0 && bytes != nullptr && size > 0) {
+        image->image.assign(bytes, bytes + size);
+        image->as_is = true;
+    }
+    return true;
+}
+
+// ---------------------------------------------------------------------------------------
+
+int component_size(int ct) {
+    switch (ct) {
+        case TINYGLTF_COMPONENT_TYPE_BYTE:
+        case TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE: return 1;
+        case TINYGLTF_COMPONENT_TYPE_SHORT:
+        case TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT: return 2;
+        case TINYGLTF_COMPONENT_TYPE_INT:
+        case TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT:
+        case TINYGLTF_COMPONENT_TYPE_FLOAT: return 4;
+        default: return 0;
+    }
+}
+
+int type_components(int type) {
+    switch (type) {
+        case TINYGLTF_TYPE_SCALAR: return 1;
+        case TINYGLTF_TYPE_VEC2: return 2;
+        case TINYGLTF_TYPE_VEC3: return 3;
+        case TINYGLTF_TYPE_VEC4: return 4;
+        case TINYGLTF_TYPE_MAT2: return 4;
+        case TINYGLTF_TYPE_MAT3: return 9;
+        case TINYGLTF_TYPE_MAT4: return 16;
+        default: return 0;
+    }
+}
+
+const char* type_name(int type) {
+    switch (type) {
+        case TINYGLTF_TYPE_SCALAR: return "SCALAR";
+        case TINYGLTF_TYPE_VEC2: return "VEC2";
+        case TINYGLTF_TYPE_VEC3: return "VEC3";
+        case TINYGLTF_TYPE_VEC4: return "VEC4";
+        case TINYGLTF_TYPE_MAT2: return "MAT2";
+        case TINYGLTF_TYPE_MAT3: return "MAT3";
+        case TINYGLTF_TYPE_MAT4: return "MAT4";
+        default: return "unknown";
+    }
+}
+
+const char* component_name(int ct) {
+    switch (ct) {
+        case TINYGLTF_COMPONENT_TYPE_BYTE: return "BYTE";
+        case TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE: return "UNSIGNED_BYTE";
+        case TINYGLTF_COMPONENT_TYPE_SHORT: return "SHORT";
+        case TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT: return "UNSIGNED_SHORT";
+        case TINYGLTF_COMPONENT_TYPE_INT: return "INT";
+        case TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT: return "UNSIGNED_INT";
+        case TINYGLTF_COMPONENT_TYPE_FLOAT: return "FLOAT";
+        default: return "unknown";
+    }
+}
+
+/// One component as float; normalized integers map to [0,1] / [-1,1] as the spec says.
+float read_component(const unsigned char* p, int ct, bool normalized) {
+    switch (ct) {
+        case TINYGLTF_COMPONENT_TYPE_FLOAT: {
+            float v;
+            std::memcpy(&v, p, 4);
+            return v;
+        }
+        case TINYGLTF_COMPONENT_TYPE_BYTE: {
+            float v = float(int8_t(p[0]));
+            return normalized ? std::max(v / 127.0f, -1.0f) : v;
+        }
+        case TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE: {
+            float v = float(p[0]);
+            return normalized ? v / 255.0f : v;
+        }
+        case TINYGLTF_COMPONENT_TYPE_SHORT: {
+            int16_t s;
+            std::memcpy(&s, p, 2);
+            return normalized ? std::max(float(s) / 32767.0f, -1.0f) : float(s);
+        }
+        case TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT: {
+            uint16_t s;
+            std::memcpy(&s, p, 2);
+            return normalized ? float(s) / 65535.0f : float(s);
+        }
+        default: return 0.0f;
+    }
+}
+
+uint32_t read_index(const unsigned char* p, int ct) {
+    switch (ct) {
+        case TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE: return p[0];
+        case TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT: {
+            uint16_t s;
+            std::memcpy(&s, p, 2);
+            return s;
+        }
+        default: {
+            uint32_t v;
+            std::memcpy(&v, p, 4);
+            return v;
+        }
+    }
+}
+
+constexpr uint32_t ct_bit(int ct) { return 1u << (ct - TINYGLTF_COMPONENT_TYPE_BYTE); }
+constexpr uint32_t kCtFloat = ct_bit(TINYGLTF_COMPONENT_TYPE_FLOAT);
+constexpr uint32_t kCtByte = ct_bit(TINYGLTF_COMPONENT_TYPE_BYTE);
+constexpr uint32_t kCtUByte = ct_bit(TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE);
+constexpr uint32_t kCtShort = ct_bit(TINYGLTF_COMPONENT_TYPE_SHORT);
+constexpr uint32_t kCtUShort = ct_bit(TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT);
+constexpr uint32_t kCtUInt = ct_bit(TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT);
+
+/// Which component types an attribute may use (core spec + KHR_mesh_quantization) and
+/// whether integer components must be normalized.
+struct AttributeRule {
+    const char* semantic;
+    int type;
+    uint32_t allowed;
+    bool ints_must_be_normalized;
+};
+constexpr AttributeRule kPositionRule{"POSITION", TINYGLTF_TYPE_VEC3,
+                                      kCtFloat | kCtByte | kCtUByte | kCtShort | kCtUShort, false};
+constexpr AttributeRule kNormalRule{"NORMAL", TINYGLTF_TYPE_VEC3, kCtFloat | kCtByte | kCtShort,
+                                    true};
+constexpr AttributeRule kTexcoordRule{"TEXCOORD", TINYGLTF_TYPE_VEC2,
+                                      kCtFloat | kCtByte | kCtUByte | kCtShort | kCtUShort, false};
+
+struct DecodedPrimitive {
+    bool skip = false;
+    std::vector<Vec3f> positions;
+    std::vector<Vec3f> normals;
+    std::vector<Vec2f> uvs;
+    std::vector<uint32_t> triangles;
+    uint32_t material = 0;
+};
+
+class Loader {
+public:
+    Loader(const std::string& name, const tinygltf::Model& model, Scene& scene)
+        : name_(name), m_(model), scene_(scene) {}
+
+    void run();
+
+private:
+    [[noreturn]] void fail(const std::string& what) const {
+        throw SceneError(name_ + ": " + what);
+    }
+    void note(const std::string& s) { scene_.notes.push_back(s); }
+
+    std::string node_desc(int i) const {
+        const std::string& n = m_.nodes[size_t(i)].name;
+        return "node " + std::to_string(i) + (n.empty() ? "" : " (" + squote(n) + ")");
+    }
+    std::string mesh_desc(int mi) const {
+        const std::string& n = m_.meshes[size_t(mi)].name;
+        return n.empty() ? "mesh " + std::to_string(mi) : "mesh " + squote(n);
+    }
+    std::string material_desc(int mi) const {
+        const std::string& n = m_.materials[size_t(mi)].name;
+        return n.empty() ? "material " + std::to_string(mi) : "material " + squote(n);
+    }
+    std::string image_desc(int ii) const {
+        const tinygltf::Image& im = m_.images[size_t(ii)];
+        std::string s = "image " + std::to_string(ii);
+        if (!im.uri.empty()) s += " (uri " + squote(im.uri) + ")";
+        else if (!im.name.empty()) s += " (" + squote(im.name) + ")";
+        return s;
+    }
+
+    void check_extensions();
+    std::vector<int> root_nodes();
+    void traverse(const std::vector<int>& roots);
+    Mat4f local_matrix(int ni) const;
+    void add_light(int ni, const Mat4f& world);
+    void add_camera(int ni, const Mat4f& world);
+    void add_mesh_instance(int ni, const Mat4f& world);
+    const DecodedPrimitive& decode_primitive(int mi, int pi);
+
+    struct ViewBytes {
+        const unsigned char* data;
+        size_t size;
+        size_t stride;
+    };
+    ViewBytes buffer_view(int bv, const std::string& user) const;
+    template <class Store>
+    void visit_accessor(int ai, const std::string& user, size_t& count, size_t elem_size,
+                        Store&& store);
+    const tinygltf::Accessor& accessor(int ai, const std::string& user) const;
+    std::vector<float> read_attribute(int ai, const AttributeRule& rule, const std::string& user);
+    std::vector<uint32_t> read_indices(int ai, const std::string& user);
+
+    uint32_t material_index(int mi, const std::string& user);
+    int texture_image(int ti, const std::string& user) const;
+    uint32_t decoded_texture(int ii, const std::string& user);
+
+    std::string name_;
+    const tinygltf::Model& m_;
+    Scene& scene_;
+
+    std::map<std::pair<int, int>, DecodedPrimitive> primitives_;
+    std::map<int, uint32_t> materials_;  // glTF material (-1 = default) -> scene material
+    std::vector<int> material_uv_set_;   // per scene material, -1 = no texture used
+    std::map<int, uint32_t> textures_;   // glTF image -> scene texture
+    std::set<std::string> ignored_material_features_;
+    std::vector<std::string> range_ignored_;
+    uint64_t elements_ = 0;
+    int cameras_seen_ = 0;
+};
+
+// ---------------------------------------------------------------------------------------
+
+void Loader::check_extensions() {
+    for (const std::string& e : m_.extensionsRequired)
+        if (!supported_extensions().count(e))
+            fail("required extension " + squote(e) + " is not supported");
+    std::string ignored;
+    for (const std::string& e : m_.extensionsUsed)
+        if (!supported_extensions().count(e)) ignored += (ignored.empty() ? "" : ", ") + e;
+    if (!ignored.empty()) note("glTF extensions ignored: " + ignored);
+    const std::string& v = m_.asset.version;
+    if (!v.empty() && v[0] != '2') fail("asset version " + squote(v) + " is not glTF 2.x");
+}
+
+std::vector<int> Loader::root_nodes() {
+    const int nnodes = int(m_.nodes.size());
+    for (int i = 0; i < nnodes; ++i)
+        for (int c : m_.nodes[size_t(i)].children)
+            if (c < 0 || c >= nnodes)
+                fail(node_desc(i) + ": child " + std::to_string(c) + " does not exist");
+    int si = m_.defaultScene;
+    if (si >= 0 && size_t(si) >= m_.scenes.size())
+        fail("default scene " + std::to_string(si) + " does not exist (" +
+             std::to_string(m_.scenes.size()) + " scenes)");
+    if (si < 0 && !m_.scenes.empty()) si = 0;
+    if (si >= 0) {
+        for (int n : m_.scenes[size_t(si)].nodes)
+            if (n < 0 || n >= nnodes)
+                fail("scene " + std::to_string(si) + ": node " + std::to_string(n) +
+                     " does not exist");
+        return m_.scenes[size_t(si)].nodes;
+    }
+    std::vector<bool> is_child(size_t(nnodes), false);
+    for (const tinygltf::Node& n : m_.nodes)
+        for (int c : n.children) is_child[size_t(c)] = true;
+    std::vector<int> roots;
+    for (int i = 0; i < nnodes; ++i)
+        if (!is_child[size_t(i)]) roots.push_back(i);
+    note("no scenes in the file: loaded all " + std::to_string(roots.size()) + " root nodes");
+    return roots;
+}
+
+Mat4f Loader::local_matrix(int ni) const {
+    const tinygltf::Node& n = m_.nodes[size_t(ni)];
+    auto finite = [](const std::vector<double>& v) {
+        return std::all_of(v.begin(), v.end(), [](double d) { return std::isfinite(d); });
+    };
+    Mat4f r;
+    if (!n.matrix.empty()) {
+        if (n.matrix.size() != 16) fail(node_desc(ni) + ": matrix must have 16 numbers");
+        if (!finite(n.matrix)) fail(node_desc(ni) + ": matrix is not finite");
+        // glTF stores column-major; Mat4f is m[row][col].
+        for (int col = 0; col < 4; ++col)
+            for (int row = 0; row < 4; ++row) r.m[row][col] = float(n.matrix[size_t(col * 4 + row)]);
+        return r;
+    }
+    if (!n.translation.empty() && n.translation.size() != 3)
+        fail(node_desc(ni) + ": translation must have 3 numbers");
+    if (!n.rotation.empty() && n.rotation.size() != 4)
+        fail(node_desc(ni) + ": rotation must have 4 numbers");
+    if (!n.scale.empty() && n.scale.size() != 3) fail(node_desc(ni) + ": scale must have 3 numbers");
+    if (!finite(n.translation) || !finite(n.rotation) || !finite(n.scale))
+        fail(node_desc(ni) + ": translation/rotation/scale is not finite");
+    Mat4f rot;
+    if (!n.rotation.empty()) {
+        double x = n.rotation[0], y = n.rotation[1], z = n.rotation[2], w = n.rotation[3];
+        double len = std::sqrt(x * x + y * y + z * z + w * w);
+        if (!(len > 0.0) || !std::isfinite(len)) fail(node_desc(ni) + ": rotation quaternion is zero");
+        x /= len; y /= len; z /= len; w /= len;
+        rot.m[0][0] = float(1 - 2 * (y * y + z * z));
+        rot.m[0][1] = float(2 * (x * y - z * w));
+        rot.m[0][2] = float(2 * (x * z + y * w));
+        rot.m[1][0] = float(2 * (x * y + z * w));
+        rot.m[1][1] = float(1 - 2 * (x * x + z * z));
+        rot.m[1][2] = float(2 * (y * z - x * w));
+        rot.m[2][0] = float(2 * (x * z - y * w));
+        rot.m[2][1] = float(2 * (y * z + x * w));
+        rot.m[2][2] = float(1 - 2 * (x * x + y * y));
+    }
+    Mat4f t, s;
+    if (!n.translation.empty())
+        t = Mat4f::translate({float(n.translation[0]), float(n.translation[1]), float(n.translation[2])});
+    if (!n.scale.empty()) s = Mat4f::scale({float(n.scale[0]), float(n.scale[1]), float(n.scale[2])});
+    return t * rot * s;
+}
+
+void Loader::traverse(const std::vector<int>& roots) {
+    // Iterative DFS: a hostile hierarchy can be deep enough to overflow a recursive walk.
+    // Each node may be reached once; a second visit is a cycle or a node with two
+    // parents, both invalid glTF (and the latter could multiply instances exponentially).
+    std::vector<bool> visited(m_.nodes.size(), false);
+    struct Item {
+        int node;
+        Mat4f parent;
+    };
+    std::vector<Item> stack;
+    for (auto it = roots.rbegin(); it != roots.rend(); ++it) stack.push_back({*it, Mat4f()});
+    while (!stack.empty()) {
+        Item item = stack.back();
+        stack.pop_back();
+        const int ni = item.node;
+        if (visited[size_t(ni)])
+            fail(node_desc(ni) + " is reached twice in the node hierarchy (cycle or two parents)");
+        visited[size_t(ni)] = true;
+        Mat4f world = item.parent * local_matrix(ni);
+        for (int r = 0; r < 4; ++r)
+            for (int c = 0; c < 4; ++c)
+                if (!std::isfinite(world.m[r][c]))
+                    fail(node_desc(ni) + ": world transform is not finite");
+        const tinygltf::Node& n = m_.nodes[size_t(ni)];
+        if (n.mesh != -1) add_mesh_instance(ni, world);
+        if (n.camera != -1) add_camera(ni, world);
+        add_light(ni, world);
+        if (n.skin != -1 && n.mesh != -1)
+            note(node_desc(ni) + ": skin ignored, mesh loaded in its bind pose");
+        const auto& ch = n.children;
+        for (auto it = ch.rbegin(); it != ch.rend(); ++it) stack.push_back({*it, world});
+    }
+}
+
+void Loader::add_camera(int ni, const Mat4f& world) {
+    const tinygltf::Node& n = m_.nodes[size_t(ni)];
+    if (n.camera < 0 || size_t(n.camera) >= m_.cameras.size())
+        fail(node_desc(ni) + ": camera " + std::to_string(n.camera) + " does not exist");
+    const tinygltf::Camera& c = m_.cameras[size_t(n.camera)];
+    std::string cdesc = "camera " + std::to_string(n.camera) + (c.name.empty() ? "" : " (" + squote(c.name) + ")");
+    if (c.type != "perspective") {
+        note(cdesc + ": " + (c.type.empty() ? std::string("untyped") : c.type) +
+             " camera skipped (only perspective cameras are supported)");
+        return;
+    }
+    ++cameras_seen_;
+    if (scene_.camera) {
+        if (cameras_seen_ == 2) note("several cameras in the scene: using the first, " + squote(scene_.camera->name));
+        return;
+    }
+    const tinygltf::PerspectiveCamera& p = c.perspective;
+    if (!std::isfinite(p.yfov) || !(p.yfov > 0.0) || !(p.yfov < 3.14159265358979))
+        fail(cdesc + ": yfov " + std::to_string(p.yfov) + " is not in (0, pi)");
+    if (!std::isfinite(p.aspectRatio) || p.aspectRatio < 0.0)
+        fail(cdesc + ": aspectRatio is invalid");
+    Camera cam;
+    cam.name = !c.name.empty() ? c.name : (!n.name.empty() ? n.name : "camera " + std::to_string(n.camera));
+    cam.camera_to_world = world;
+    cam.yfov_deg = float(p.yfov * kRadToDeg);
+    cam.aspect = float(p.aspectRatio);
+    cam.xfov_deg = p.aspectRatio > 0.0
+                       ? float(2.0 * std::atan(std::tan(p.yfov / 2.0) * p.aspectRatio) * kRadToDeg)
+                       : 0.0f;
+    if (std::isfinite(p.znear) && p.znear > 0.0) cam.znear = float(p.znear);
+    if (std::isfinite(p.zfar) && p.zfar > cam.znear) cam.zfar = float(p.zfar);
+    scene_.camera = cam;
+}
+
+void Loader::add_light(int ni, const Mat4f& world) {
+    const tinygltf::Node& n = m_.nodes[size_t(ni)];
+    auto ext = n.extensions.find("KHR_lights_punctual");
+    if (ext == n.extensions.end()) return;
+    const tinygltf::Value& v = ext->second;
+    if (!v.IsObject() || !v.Has("light") || !v.Get("light").IsNumber())
+        fail(node_desc(ni) + ": KHR_lights_punctual has no light index");
+    double ld = v.Get("light").GetNumberAsDouble();
+    if (!(ld >= 0.0) || ld >= double(m_.lights.size()) || ld != std::floor(ld))
+        fail(node_desc(ni) + ": light " + std::to_string(ld) + " does not exist (" +
+             std::to_string(m_.lights.size()) + " lights)");
+    const int li = int(ld);
+    const tinygltf::Light& l = m_.lights[size_t(li)];
+    std::string ldesc = "light " + std::to_string(li) + (l.name.empty() ? "" : " (" + squote(l.name) + ")");
+    Vec3f color{1.0f, 1.0f, 1.0f};
+    if (!l.color.empty()) {
+        if (l.color.size() != 3) fail(ldesc + ": color must have 3 numbers");
+        color = Vec3f{float(l.color[0]), float(l.color[1]), float(l.color[2])};
+    }
+    if (!is_finite(color) || color.x < 0 || color.y < 0 || color.z < 0 ||
+        !std::isfinite(l.intensity) || l.intensity < 0)
+        fail(ldesc + ": color/intensity must be finite and non-negative");
+    Light out;
+    out.name = !l.name.empty() ? l.name : (!n.name.empty() ? n.name : "light " + std::to_string(li));
+    out.radiance = color * float(l.intensity);
+    out.position = world.transform_point(Vec3f{0, 0, 0});
+    Vec3f dir = world.transform_vector(Vec3f{0, 0, -1});
+    float len = length(dir);
+    if (l.type == "point") {
+        out.type = LightType::Point;
+    } else if (l.type == "directional" || l.type == "spot") {
+        if (!(len > 0.0f) || !std::isfinite(len)) fail(node_desc(ni) + ": light direction is degenerate");
+        out.direction = dir / len;
+        out.type = l.type == "spot" ? LightType::Spot : LightType::Directional;
+        if (out.type == LightType::Spot) {
+            double inner = l.spot.innerConeAngle, outer = l.spot.outerConeAngle;
+            if (!std::isfinite(inner) || !std::isfinite(outer))
+                fail(ldesc + ": spot cone angles are not finite");
+            double cl_outer = std::clamp(outer, 0.0, 1.5707963267948966);
+            double cl_inner = std::clamp(inner, 0.0, cl_outer);
+            if (cl_outer != outer || cl_inner != inner)
+                note(ldesc + ": spot cone angles clamped to 0 <= inner <= outer <= pi/2");
+            out.spot_cos_inner = float(std::cos(cl_inner));
+            out.spot_cos_outer = float(std::cos(cl_outer));
+        }
+    } else {
+        note(ldesc + ": unknown light type " + squote(l.type) + " skipped");
+        return;
+    }
+    if (l.range > 0.0) note(ldesc + ": range " + std::to_string(l.range) + " ignored (lights fall off as 1/r^2 without cut-off)");
+    scene_.lights.push_back(out);
+}
+
+// ---------------------------------------------------------------------------------------
+// Accessors
+
+Loader::ViewBytes Loader::buffer_view(int bvi, const std::string& user) const {
+    if (bvi < 0 || size_t(bvi) >= m_.bufferViews.size())
+        fail(user + ": bufferView " + std::to_string(bvi) + " does not exist");
+    const tinygltf::BufferView& bv = m_.bufferViews[size_t(bvi)];
+    std::string bdesc = "bufferView " + std::to_string(bvi);
+    if (bv.buffer < 0 || size_t(bv.buffer) >= m_.buffers.size())
+        fail(bdesc + ": buffer " + std::to_string(bv.buffer) + " does not exist");
+    const tinygltf::Buffer& b = m_.buffers[size_t(bv.buffer)];
+    if (bv.byteOffset > b.data.size() || bv.byteLength > b.data.size() - bv.byteOffset)
+        fail(bdesc + ": bytes [" + std::to_string(bv.byteOffset) + ", +" +
+             std::to_string(bv.byteLength) + ") exceed buffer " + std::to_string(bv.buffer) +
+             (b.uri.empty() || tinygltf::IsDataURI(b.uri) ? "" : " (uri " + squote(b.uri) + ")") +
+             " of " + std::to_string(b.data.size()) + " bytes");
+    return {b.data.data() + bv.byteOffset, bv.byteLength, bv.byteStride};
+}
+
+const tinygltf::Accessor& Loader::accessor(int ai, const std::string& user) const {
+    if (ai < 0 || size_t(ai) >= m_.accessors.size())
+        fail(user + ": accessor " + std::to_string(ai) + " does not exist");
+    return m_.accessors[size_t(ai)];
+}
+
+/// Calls store(i, bytes) for every element in order, then again for each sparse
+/// substitution. All ranges are checked before the first byte is read.
+template <class Store>
+void Loader::visit_accessor(int ai, const std::string& user, size_t& count, size_t elem_size,
+                            Store&& store) {
+    const tinygltf::Accessor& a = accessor(ai, user);
+    const std::string adesc = "accessor " + std::to_string(ai);
+    count = a.count;
+    if (a.bufferView >= 0) {
+        ViewBytes v = buffer_view(a.bufferView, adesc);
+        size_t stride = v.stride ? v.stride : elem_size;
+        if (stride < elem_size)
+            fail("bufferView " + std::to_string(a.bufferView) + ": byteStride " +
+                 std::to_string(stride) + " is smaller than an element of " + adesc);
+        if (count > 0) {
+            if (a.byteOffset > v.size || elem_size > v.size - a.byteOffset ||
+                (count - 1) > (v.size - a.byteOffset - elem_size) / stride)
+                fail(adesc + ": " + std::to_string(count) + " elements (stride " +
+                     std::to_string(stride) + ", offset " + std::to_string(a.byteOffset) +
+                     ") do not fit in bufferView " + std::to_string(a.bufferView) + " of " +
+                     std::to_string(v.size) + " bytes");
+        }
+        for (size_t i = 0; i < count; ++i) store(i, v.data + a.byteOffset + i * stride);
+    } else {
+        if (count > kMaxUnbackedCount)
+            fail(adesc + ": count " + std::to_string(count) + " without a bufferView is too large");
+        static const unsigned char zeros[64] = {};
+        for (size_t i = 0; i < count; ++i) store(i, zeros);
+    }
+    if (!a.sparse.isSparse) return;
+    const auto& sp = a.sparse;
+    if (sp.count < 1 || size_t(sp.count) > count)
+        fail(adesc + ": sparse count " + std::to_string(sp.count) + " not in [1, " +
+             std::to_string(count) + "]");
+    const int ict = sp.indices.componentType;
+    if (ict != TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE && ict != TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT &&
+        ict != TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT)
+        fail(adesc + ": sparse indices component type " + std::to_string(ict) + " not allowed");
+    if (sp.indices.byteOffset < 0 || sp.values.byteOffset < 0)
+        fail(adesc + ": negative sparse byteOffset");
+    const size_t n = size_t(sp.count), isz = size_t(component_size(ict));
+    ViewBytes iv = buffer_view(sp.indices.bufferView, adesc + " sparse indices");
+    ViewBytes vv = buffer_view(sp.values.bufferView, adesc + " sparse values");
+    if (size_t(sp.indices.byteOffset) > iv.size || n > (iv.size - size_t(sp.indices.byteOffset)) / isz)
+        fail(adesc + ": sparse indices do not fit in bufferView " + std::to_string(sp.indices.bufferView));
+    if (size_t(sp.values.byteOffset) > vv.size || n > (vv.size - size_t(sp.values.byteOffset)) / elem_size)
+        fail(adesc + ": sparse values do not fit in bufferView " + std::to_string(sp.values.bufferView));
+    for (size_t k = 0; k < n; ++k) {
+        uint32_t idx = read_index(iv.data + size_t(sp.indices.byteOffset) + k * isz, ict);
+        if (idx >= count)
+            fail(adesc + ": sparse index " + std::to_string(idx) + " out of range (count " +
+                 std::to_string(count) + ")");
+        store(idx, vv.data + size_t(sp.values.byteOffset) + k * elem_size);
+    }
+}
+
+std::vector<float> Loader::read_attribute(int ai, const AttributeRule& rule, const std::string& user) {
+    const tinygltf::Accessor& a = accessor(ai, user);
+    const std::string adesc = "accessor " + std::to_string(ai);
+    if (a.type != rule.type)
+        fail(adesc + " (" + rule.semantic + " of " + user + "): type " + type_name(a.type) +
+             ", expected " + type_name(rule.type));
+    const int ct = a.componentType;
+    if (component_size(ct) == 0 || ct == TINYGLTF_COMPONENT_TYPE_INT || !(rule.allowed & ct_bit(ct)))
+        fail(adesc + " (" + rule.semantic + " of " + user + "): component type " +
+             component_name(ct) + " not allowed");
+    if (ct != TINYGLTF_COMPONENT_TYPE_FLOAT && rule.ints_must_be_normalized && !a.normalized)
+        fail(adesc + " (" + rule.semantic + " of " + user + "): integer components must be normalized");
+    const size_t nc = size_t(type_components(rule.type)), cs = size_t(component_size(ct));
+    std::vector<float> out;
+    size_t count = 0;
+    bool sized = false;
+    visit_accessor(ai, user, count, nc * cs, [&](size_t i, const unsigned char* p) {
+        if (!sized) {  // allocate only once the ranges have been validated
+            out.resize(count * nc);
+            sized = true;
+        }
+        for (size_t c = 0; c < nc; ++c) {
+            float v = read_component(p + c * cs, ct, a.normalized);
+            if (!std::isfinite(v))
+                fail(adesc + " (" + rule.semantic + " of " + user + "): element " +
+                     std::to_string(i) + " is not finite");
+            out[i * nc + c] = v;
+        }
+    });
+    return out;
+}
+
+std::vector<uint32_t> Loader::read_indices(int ai, const std::string& user) {
+    const tinygltf::Accessor& a = accessor(ai, user);
+    const std::string adesc = "accessor " + std::to_string(ai);
+    if (a.type != TINYGLTF_TYPE_SCALAR)
+        fail(adesc + " (indices of " + user + "): type " + type_name(a.type) + ", expected SCALAR");
+    const int ct = a.componentType;
+    if (ct != TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE && ct != TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT &&
+        ct != TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT)
+        fail(adesc + " (indices of " + user + "): component type " + component_name(ct) + " not allowed");
+    std::vector<uint32_t> out;
+    size_t count = 0;
+    bool sized = false;
+    visit_accessor(ai, user, count, size_t(component_size(ct)), [&](size_t i, const unsigned char* p) {
+        if (!sized) {
+            out.resize(count);
+            sized = true;
+        }
+        out[i] = read_index(p, ct);
+    });
+    return out;
+}
+
+// ---------------------------------------------------------------------------------------
+// Materials and textures
+
+int Loader::texture_image(int ti, const std::string& user) const {
+    if (ti < 0 || size_t(ti) >= m_.textures.size())
+        fail(user + ": texture " + std::to_string(ti) + " does not exist");
+    const tinygltf::Texture& t = m_.textures[size_t(ti)];
+    if (t.source < 0)
+        fail(user + ": texture " + std::to_string(ti) +
+             " has no source image (extension-only image formats are not supported)");
+    if (size_t(t.source) >= m_.images.size())
+        fail(user + ": texture " + std::to_string(ti) + ": image " + std::to_string(t.source) +
+             " does not exist");
+    return t.source;
+}
+
+uint32_t Loader::decoded_texture(int ii, const std::string& user) {
+    auto found = textures_.find(ii);
+    if (found != textures_.end()) return found->second;
+    const tinygltf::Image& im = m_.images[size_t(ii)];
+    const unsigned char* bytes = nullptr;
+    size_t size = 0;
+    if (im.bufferView >= 0) {
+        ViewBytes v = buffer_view(im.bufferView, user + ": " + image_desc(ii));
+        bytes = v.data;
+        size = v.size;
+    } else {
+        bytes = im.image.data();
+        size = im.image.size();
+    }
+    if (size == 0) {
+        if (!im.uri.empty() && !tinygltf::IsDataURI(im.uri))
+            fail(user + ": " + image_desc(ii) + ": file not found or unreadable");
+        fail(user + ": " + image_desc(ii) + " has no data");
+    }
+    Texture tex;
+    std::string why;
+    if (!decode_srgb_texture(bytes, size, tex, why)) fail(user + ": " + image_desc(ii) + ": " + why);
+    tex.name = !im.name.empty() ? im.name : (!im.uri.empty() && !tinygltf::IsDataURI(im.uri) ? im.uri : "image " + std::to_string(ii));
+    uint32_t idx = uint32_t(scene_.textures.size());
+    scene_.textures.push_back(std::move(tex));
+    textures_[ii] = idx;
+    return idx;
+}
+
+uint32_t Loader::material_index(int mi, const std::string& user) {
+    if (mi != -1 && (mi < 0 || size_t(mi) >= m_.materials.size()))
+        fail(user + ": material " + std::to_string(mi) + " does not exist");
+    auto found = materials_.find(mi);
+    if (found != materials_.end()) return found->second;
+    Material out;
+    int uv_set = -1;
+    if (mi == -1) {
+        out.name = "default";  // glTF default material is white; the project default is grey 0.8
+    } else {
+        const tinygltf::Material& g = m_.materials[size_t(mi)];
+        const std::string mdesc = material_desc(mi);
+        out.name = g.name.empty() ? "material " + std::to_string(mi) : g.name;
+        const auto& pbr = g.pbrMetallicRoughness;
+        if (pbr.baseColorFactor.size() != 4) fail(mdesc + ": baseColorFactor must have 4 numbers");
+        Vec3f base{float(pbr.baseColorFactor[0]), float(pbr.baseColorFactor[1]), float(pbr.baseColorFactor[2])};
+        if (!is_finite(base)) fail(mdesc + ": baseColorFactor is not finite");
+        out.albedo = vmin(vmax(base, Vec3f(0.0f)), Vec3f(1.0f));
+        Vec3f emissive;
+        if (!g.emissiveFactor.empty()) {
+            if (g.emissiveFactor.size() != 3) fail(mdesc + ": emissiveFactor must have 3 numbers");
+            emissive = {float(g.emissiveFactor[0]), float(g.emissiveFactor[1]), float(g.emissiveFactor[2])};
+        }
+        double strength = 1.0;
+        auto es = g.extensions.find("KHR_materials_emissive_strength");
+        if (es != g.extensions.end() && es->second.IsObject() && es->second.Has("emissiveStrength") &&
+            es->second.Get("emissiveStrength").IsNumber())
+            strength = es->second.Get("emissiveStrength").GetNumberAsDouble();
+        emissive = emissive * float(strength);
+        if (!is_finite(emissive) || emissive.x < 0 || emissive.y < 0 || emissive.z < 0)
+            fail(mdesc + ": emission (emissiveFactor x emissiveStrength) must be finite and non-negative");
+        out.emission = emissive;
+
+        auto note_transform = [&](const tinygltf::TextureInfo& ti, const char* slot) {
+            if (ti.extensions.count("KHR_texture_transform"))
+                ignored_material_features_.insert(std::string("KHR_texture_transform (") + slot + ")");
+        };
+        if (pbr.baseColorTexture.index >= 0) {
+            int img = texture_image(pbr.baseColorTexture.index, mdesc + " baseColorTexture");
+            out.albedo_texture = decoded_texture(img, mdesc + " baseColorTexture");
+            uv_set = pbr.baseColorTexture.texCoord;
+            note_transform(pbr.baseColorTexture, "baseColorTexture");
+        }
+        if (g.emissiveTexture.index >= 0) {
+            int img = texture_image(g.emissiveTexture.index, mdesc + " emissiveTexture");
+            // A texture multiplying zero emission changes nothing: do not decode it.
+            if (out.is_emissive()) {
+                out.emission_texture = decoded_texture(img, mdesc + " emissiveTexture");
+                if (uv_set >= 0 && uv_set != g.emissiveTexture.texCoord)
+                    note(mdesc + ": emissiveTexture uses TEXCOORD_" + std::to_string(g.emissiveTexture.texCoord) +
+                         " but baseColorTexture TEXCOORD_" + std::to_string(uv_set) + "; both sampled with the latter");
+                if (uv_set < 0) uv_set = g.emissiveTexture.texCoord;
+                note_transform(g.emissiveTexture, "emissiveTexture");
+            }
+        }
+        if (out.albedo_texture != kNoTexture && out.is_emissive())
+            note(mdesc + ": emissive, so the renderer ignores its albedo/baseColorTexture");
+        // Unneeded textures are never decoded, but a dangling reference is still an error.
+        if (pbr.metallicRoughnessTexture.index >= 0)
+            texture_image(pbr.metallicRoughnessTexture.index, mdesc + " metallicRoughnessTexture");
+        if (g.normalTexture.index >= 0) {
+            texture_image(g.normalTexture.index, mdesc + " normalTexture");
+            ignored_material_features_.insert("normalTexture");
+        }
+        if (g.occlusionTexture.index >= 0) {
+            texture_image(g.occlusionTexture.index, mdesc + " occlusionTexture");
+            ignored_material_features_.insert("occlusionTexture");
+        }
+        if (!std::isfinite(pbr.metallicFactor)) fail(mdesc + ": metallicFactor is not finite");
+        if (pbr.metallicFactor > 0.0 || pbr.metallicRoughnessTexture.index >= 0) {
+            std::ostringstream r;
+            r << "metallic-roughness (metallic=" << pbr.metallicFactor << ", roughness="
+              << pbr.roughnessFactor << (pbr.metallicRoughnessTexture.index >= 0 ? ", textured" : "") << ")";
+            out.replaced = r.str();
+            ignored_material_features_.insert("metallic-roughness");
+        }
+        if (g.alphaMode != "OPAQUE" && !g.alphaMode.empty())
+            ignored_material_features_.insert("alphaMode " + g.alphaMode);
+        for (const auto& [ext, v] : g.extensions)
+            if (ext != "KHR_materials_emissive_strength") ignored_material_features_.insert(ext);
+    }
+    uint32_t idx = uint32_t(scene_.materials.size());
+    scene_.materials.push_back(out);
+    material_uv_set_.push_back(out.albedo_texture != kNoTexture || out.emission_texture != kNoTexture ? uv_set : -1);
+    materials_[mi] = idx;
+    return idx;
+}
+
+// ---------------------------------------------------------------------------------------
+// Meshes
+
+const DecodedPrimitive& Loader::decode_primitive(int mi, int pi) {
+    auto key = std::make_pair(mi, pi);
+    auto found = primitives_.find(key);
+    if (found != primitives_.end()) return found->second;
+    DecodedPrimitive d;
+    const tinygltf::Primitive& p = m_.meshes[size_t(mi)].primitives[size_t(pi)];
+    const std::string pdesc = mesh_desc(mi) + " primitive " + std::to_string(pi);
+    int mode = p.mode < 0 ? TINYGLTF_MODE_TRIANGLES : p.mode;
+    static const char* kModeNames[] = {"POINTS", "LINES", "LINE_LOOP", "LINE_STRIP"};
+    if (mode >= 0 && mode <= 3) {
+        note(pdesc + ": " + kModeNames[mode] + " primitive skipped (only triangles are rendered)");
+        d.skip = true;
+    } else if (mode > TINYGLTF_MODE_TRIANGLE_FAN) {
+        fail(pdesc + ": unknown mode " + std::to_string(mode));
+    } else if (p.attributes.find("POSITION") == p.attributes.end()) {
+        note(pdesc + ": no POSITION attribute, skipped");
+        d.skip = true;
+    }
+    if (d.skip) return primitives_.emplace(key, std::move(d)).first->second;
+
+    d.material = material_index(p.material, pdesc);
+    std::vector<float> pos = read_attribute(p.attributes.at("POSITION"), kPositionRule, pdesc);
+    const size_t nv = pos.size() / 3;
+    if (nv >= size_t(std::numeric_limits<uint32_t>::max()))
+        fail(pdesc + ": too many vertices");
+    d.positions.resize(nv);
+    for (size_t i = 0; i < nv; ++i) d.positions[i] = {pos[i * 3], pos[i * 3 + 1], pos[i * 3 + 2]};
+
+    auto nrm_it = p.attributes.find("NORMAL");
+    if (nrm_it != p.attributes.end()) {
+        std::vector<float> nrm = read_attribute(nrm_it->second, kNormalRule, pdesc);
+        if (nrm.size() != pos.size())
+            fail(pdesc + ": NORMAL has " + std::to_string(nrm.size() / 3) + " elements, POSITION " +
+                 std::to_string(nv));
+        d.normals.resize(nv);
+        for (size_t i = 0; i < nv; ++i) d.normals[i] = {nrm[i * 3], nrm[i * 3 + 1], nrm[i * 3 + 2]};
+    }
+    int uv_set = material_uv_set_[d.material];
+    if (uv_set >= 0) {
+        std::string sem = "TEXCOORD_" + std::to_string(uv_set);
+        auto uv_it = p.attributes.find(sem);
+        if (uv_it == p.attributes.end()) {
+            note(pdesc + ": material " + squote(scene_.materials[d.material].name) + " is textured but the primitive has no " + sem + "; texture sampled at uv (0,0)");
+        } else {
+            std::vector<float> uv = read_attribute(uv_it->second, kTexcoordRule, pdesc);
+            if (uv.size() / 2 != nv)
+                fail(pdesc + ": " + sem + " has " + std::to_string(uv.size() / 2) + " elements, POSITION " +
+                     std::to_string(nv));
+            d.uvs.resize(nv);
+            for (size_t i = 0; i < nv; ++i) d.uvs[i] = {uv[i * 2], uv[i * 2 + 1]};
+        }
+    }
+
+    std::vector<uint32_t> idx;
+    if (p.indices >= 0) {
+        idx = read_indices(p.indices, pdesc);
+        for (size_t i = 0; i < idx.size(); ++i)
+            if (idx[i] >= nv)
+                fail(pdesc + ": index " + std::to_string(idx[i]) + " at position " + std::to_string(i) +
+                     " of accessor " + std::to_string(p.indices) + " is out of range (" +
+                     std::to_string(nv) + " vertices)");
+    } else {
+        idx.resize(nv);
+        for (size_t i = 0; i < nv; ++i) idx[i] = uint32_t(i);
+    }
+    const size_t n = idx.size();
+    if (mode == TINYGLTF_MODE_TRIANGLES) {
+        if (n % 3 != 0)
+            note(pdesc + ": " + std::to_string(n) + " vertices is not a multiple of 3; last " +
+                 std::to_string(n % 3) + " ignored");
+        d.triangles.assign(idx.begin(), idx.begin() + ptrdiff_t(n - n % 3));
+    } else if (n >= 3) {
+        d.triangles.reserve((n - 2) * 3);
+        for (size_t i = 0; i + 2 < n; ++i) {
+            if (mode == TINYGLTF_MODE_TRIANGLE_STRIP) {
+                // Odd triangles swap their last two vertices to keep a consistent winding.
+                bool odd = i % 2 == 1;
+                d.triangles.insert(d.triangles.end(),
+                                   {idx[i], idx[odd ? i + 2 : i + 1], idx[odd ? i + 1 : i + 2]});
+            } else {
+                d.triangles.insert(d.triangles.end(), {idx[i + 1], idx[i + 2], idx[0]});
+            }
+        }
+    }
+    return primitives_.emplace(key, std::move(d)).first->second;
+}
+
+void Loader::add_mesh_instance(int ni, const Mat4f& world) {
+    const tinygltf::Node& n = m_.nodes[size_t(ni)];
+    if (n.mesh < 0 || size_t(n.mesh) >= m_.meshes.size())
+        fail(node_desc(ni) + ": mesh " + std::to_string(n.mesh) + " does not exist");
+    const tinygltf::Mesh& gm = m_.meshes[size_t(n.mesh)];
+    // The normal matrix is the inverse transpose; a singular world matrix has none.
+    Mat4f inv = world.inverse();
+    bool normals_ok = std::isfinite(inv.m[0][0]);
+    for (int r = 0; r < 3; ++r)
+        for (int c = 0; c < 3; ++c) normals_ok = normals_ok && std::isfinite(inv.m[r][c]);
+    double det = double(world.m[0][0]) * (double(world.m[1][1]) * world.m[2][2] - double(world.m[1][2]) * world.m[2][1]) -
+                 double(world.m[0][1]) * (double(world.m[1][0]) * world.m[2][2] - double(world.m[1][2]) * world.m[2][0]) +
+                 double(world.m[0][2]) * (double(world.m[1][0]) * world.m[2][1] - double(world.m[1][1]) * world.m[2][0]);
+    const bool mirrored = det < 0.0;
+    for (size_t pi = 0; pi < gm.primitives.size(); ++pi) {
+        const DecodedPrimitive& d = decode_primitive(n.mesh, int(pi));
+        if (d.skip) continue;
+        elements_ += d.positions.size() + d.triangles.size() + d.normals.size() + d.uvs.size();
+        if (elements_ > kMaxSceneElements)
+            fail(node_desc(ni) + ": scene too large (more than " + std::to_string(kMaxSceneElements) +
+                 " vertex/index elements after instancing)");
+        Mesh out;
+        out.name = gm.name.empty() ? "mesh " + std::to_string(n.mesh) : gm.name;
+        if (gm.primitives.size() > 1) out.name += "/" + std::to_string(pi);
+        out.material = d.material;
+        out.positions.reserve(d.positions.size() + 1);
+        for (const Vec3f& p : d.positions) {
+            Vec3f w = world.transform_point(p);
+            if (!is_finite(w))
+                fail(node_desc(ni) + ": " + mesh_desc(n.mesh) + " has non-finite world positions");
+            out.positions.push_back(w);
+        }
+        out.pad_positions();
+        out.indices = d.triangles;
+        if (mirrored)
+            for (size_t t = 0; t + 2 < out.indices.size(); t += 3) std::swap(out.indices[t + 1], out.indices[t + 2]);
+        if (!d.normals.empty()) {
+            if (!normals_ok) {
+                note(node_desc(ni) + ": singular transform, shading normals dropped");
+            } else {
+                out.normals.reserve(d.normals.size());
+                bool degenerate = false;
+                for (const Vec3f& nn : d.normals) {
+                    Vec3f t{inv.m[0][0] * nn.x + inv.m[1][0] * nn.y + inv.m[2][0] * nn.z,
+                            inv.m[0][1] * nn.x + inv.m[1][1] * nn.y + inv.m[2][1] * nn.z,
+                            inv.m[0][2] * nn.x + inv.m[1][2] * nn.y + inv.m[2][2] * nn.z};
+                    float len = length(t);
+                    if (!(len > 0.0f) || !std::isfinite(len)) {
+                        degenerate = true;
+                        break;
+                    }
+                    out.normals.push_back(t / len);
+                }
+                if (degenerate) {
+                    // Either every normal is unit or the mesh has none: the renderer
+                    // then falls back to geometric normals instead of shading with NaNs.
+                    out.normals.clear();
+                    note(node_desc(ni) + ": " + mesh_desc(n.mesh) + " primitive " + std::to_string(pi) +
+                         " has zero-length normals; shading normals dropped");
+                }
+            }
+        }
+        out.uvs = d.uvs;
+        if (out.indices.empty()) continue;
+        scene_.meshes.push_back(std::move(out));
+    }
+}
+
+// ---------------------------------------------------------------------------------------
+
+void Loader::run() {
+    scene_.format = SceneFormat::Gltf;
+    scene_.up = Vec3f{0.0f, 1.0f, 0.0f};
+    check_extensions();
+    traverse(root_nodes());
+    if (scene_.num_triangles() == 0) fail("the scene has no triangles to render");
+
+    // Images nobody needed and that could not be read: say so, once each.
+    for (size_t i = 0; i < m_.images.size(); ++i) {
+        const tinygltf::Image& im = m_.images[i];
+        if (im.bufferView < 0 && im.image.empty() && !im.uri.empty() && !textures_.count(int(i)))
+            note(image_desc(int(i)) + " not found; not needed (we do not model the texture slots that use it), ignored");
+    }
+    if (!ignored_material_features_.empty()) {
+        std::string s;
+        for (const std::string& f : ignored_material_features_) s += (s.empty() ? "" : ", ") + f;
+        note("glTF material features ignored (rendered as diffuse/emissive): " + s);
+    }
+    if (!m_.animations.empty()) note("animations ignored (" + std::to_string(m_.animations.size()) + ")");
+}
+
+Scene load_impl(const unsigned char* data, size_t size, const std::string& name,
+                const std::string& base_dir, bool binary) {
+    if (size > std::numeric_limits<uint32_t>::max()) throw SceneError(name + ": file larger than 4 GiB");
+    uint32_t length = uint32_t(size);
+    if (binary) {
+        length = check_glb(data, size, name);
+        if (json_too_deep(data + 20, le32(data + 12)))
+            throw SceneError(name + ": JSON nested deeper than " + std::to_string(kMaxJsonDepth) + " levels");
+    } else if (json_too_deep(data, size)) {
+        throw SceneError(name + ": JSON nested deeper than " + std::to_string(kMaxJsonDepth) + " levels");
+    }
+
+    FsContext fs_ctx{base_dir};
+    tinygltf::TinyGLTF ctx;
+    ctx.SetImageLoader(&defer_image, nullptr);
+    ctx.SetFsCallbacks(tinygltf::FsCallbacks{&fs_exists, &fs_expand, &fs_read, &fs_write, &fs_ctx});
+    tinygltf::Model model;
+    std::string err, warn;
+    bool ok = false;
+    try {
+        ok = binary ? ctx.LoadBinaryFromMemory(&model, &err, &warn, data, length, base_dir)
+                    : ctx.LoadASCIIFromString(&model, &err, &warn, reinterpret_cast<const char*>(data),
+                                              length, base_dir);
+    } catch (const std::exception& e) {
+        throw SceneError(name + ": invalid glTF: " + e.what());
+    }
+    if (!ok) {
+        std::string why = one_line(err.empty() ? warn : err);
+        if (why.find("parse_error") != std::string::npos)
+            throw SceneError(name + ": JSON parse error: " + why);
+        // tinygltf stops at the first failing buffer, so the buffers parsed so far tell
+        // which one it was.
+        if (why.find("File ") != std::string::npos || why.find("Buffer") != std::string::npos ||
+            why.find("buffer") != std::string::npos)
+            if (model.bufferViews.empty() && model.accessors.empty())
+                throw SceneError(name + ": buffer " + std::to_string(model.buffers.size()) + ": " + why);
+        throw SceneError(name + ": invalid glTF: " + why);
+    }
+    Scene scene;
+    scene.source = name;
+    // tinygltf's image warnings are superseded by our own notes on missing images.
+    std::istringstream ws(warn + "\n" + err);
+    for (std::string line; std::getline(ws, line);)
+        if (!line.empty() && line.find("image[") == std::string::npos &&
+            line.find("File not found") == std::string::npos)
+            scene.notes.push_back("tinygltf: " + line);
+    Loader(name, model, scene).run();
+    return scene;
+}
+
+}  // namespace
+
+Scene load_gltf(const std::string& path) {
+    std::error_code ec;
+    if (!std::filesystem::is_regular_file(path, ec)) throw SceneError(path + ": cannot open file");
+    uint64_t size = std::filesystem::file_size(path, ec);
+    if (ec) throw SceneError(path + ": cannot open file");
+    if (size > std::numeric_limits<uint32_t>::max()) throw SceneError(path + ": file larger than 4 GiB");
+    std::vector<unsigned char> bytes(static_cast<size_t>(size));
+    std::ifstream f(path, std::ios::binary);
+    if (!f || (size > 0 && !f.read(reinterpret_cast<char*>(bytes.data()), std::streamsize(size))))
+        throw SceneError(path + ": cannot read file");
+    // The magic decides, not the extension: a .gltf holding GLB bytes still loads.
+    bool binary = bytes.size() >= 4 && std::memcmp(bytes.data(), "glTF", 4) == 0;
+    std::string ext = std::filesystem::path(path).extension().string();
+    std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return char(std::tolower(c)); });
+    if (ext == ".glb" && !binary) binary = true;  // let the GLB check name the problem
+    std::string base = std::filesystem::path(path).parent_path().string();
+    return load_impl(bytes.data(), bytes.size(), path, base, binary);
+}
+
+Scene load_gltf_memory(const void* data, size_t size, const std::string& name,
+                       const std::string& base_dir, bool binary) {
+    static const unsigned char empty = 0;
+    return load_impl(size ? static_cast<const unsigned char*>(data) : &empty, size, name, base_dir, binary);
+}
+
 }  // namespace scenes

@@ -1,0 +1,125 @@
+// The three shared glTF sample models (../shared/scenes/gltf): counts are recomputed from
+// each file's own JSON/accessors where practical, not copied from the loader.
+#include <gtest/gtest.h>
+
+#include <chrono>
+#include <cmath>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <string>
+
+#include "scenes/gltf/gltf.h"
+
+namespace {
+
+std::string shared(const std::string& rel) { return std::string(PT_SHARED_SCENES) + "/gltf/" + rel; }
+
+#define REQUIRE_SHARED(rel)                                                                   \
+    do {                                                                                      \
+        if (!std::filesystem::exists(shared(rel)))                                            \
+            GTEST_SKIP() << "shared scene folder " << PT_SHARED_SCENES                        \
+                         << "/gltf not available (" << rel << ")";                            \
+    } while (0)
+
+bool has_note(const scenes::Scene& s, const std::string& needle) {
+    for (const std::string& n : s.notes)
+        if (n.find(needle) != std::string::npos) return true;
+    return false;
+}
+
+/// Invariants every loaded mesh must satisfy (padding, index range, unit normals).
+void check_meshes(const scenes::Scene& s) {
+    for (const scenes::Mesh& m : s.meshes) {
+        ASSERT_GE(m.positions.size(), 1u) << m.name;
+        EXPECT_EQ(m.positions.back(), (scenes::Vec3f{0, 0, 0})) << m.name << ": padding element";
+        EXPECT_EQ(m.indices.size() % 3, 0u);
+        for (uint32_t i : m.indices) ASSERT_LT(i, m.num_vertices()) << m.name;
+        if (!m.normals.empty()) {
+            ASSERT_EQ(m.normals.size(), m.num_vertices());
+            for (const auto& n : m.normals) ASSERT_NEAR(accel::length(n), 1.0f, 1e-4f);
+        }
+        if (!m.uvs.empty()) {
+            ASSERT_EQ(m.uvs.size(), m.num_vertices());
+        }
+        ASSERT_LT(m.material, s.materials.size());
+        for (uint32_t i = 0; i < m.num_vertices(); ++i) ASSERT_TRUE(accel::is_finite(m.positions[i]));
+    }
+}
+
+TEST(GltfShared, Suzanne) {
+    REQUIRE_SHARED("Suzanne/Suzanne.gltf");
+    scenes::Scene s = scenes::load_gltf(shared("Suzanne/Suzanne.gltf"));
+    EXPECT_EQ(s.format, scenes::SceneFormat::Gltf);
+    EXPECT_EQ(s.up, (scenes::Vec3f{0, 1, 0}));
+    // One primitive, indices accessor count 11808 -> 3936 triangles, 11808 vertices.
+    ASSERT_EQ(s.meshes.size(), 1u);
+    EXPECT_EQ(s.num_triangles(), 11808u / 3);
+    EXPECT_EQ(s.meshes[0].num_vertices(), 11808u);
+    EXPECT_FALSE(s.meshes[0].normals.empty());
+    EXPECT_FALSE(s.meshes[0].uvs.empty()) << "base colour texture needs uvs";
+    check_meshes(s);
+    ASSERT_EQ(s.materials.size(), 1u);
+    const scenes::Material& m = s.materials[0];
+    EXPECT_EQ(m.name, "Suzanne");
+    ASSERT_NE(m.albedo_texture, scenes::kNoTexture);
+    EXPECT_EQ(m.emission_texture, scenes::kNoTexture);
+    EXPECT_FALSE(m.replaced.empty()) << "default metallicFactor is 1";
+    // Only the base colour image is decoded; the metallic-roughness one is not.
+    ASSERT_EQ(s.textures.size(), 1u);
+    const scenes::Texture& t = s.textures[m.albedo_texture];
+    EXPECT_EQ(t.width, 1024u);
+    EXPECT_EQ(t.height, 1024u);
+    EXPECT_EQ(t.rgb.size(), size_t(1024) * 1024 * 3);
+    for (float v : t.rgb) ASSERT_TRUE(v >= 0.0f && v <= 1.0f);
+    EXPECT_TRUE(s.lights.empty());
+    EXPECT_FALSE(s.camera.has_value());
+    EXPECT_TRUE(has_note(s, "metallic-roughness"));
+}
+
+TEST(GltfShared, DamagedHelmet) {
+    REQUIRE_SHARED("DamagedHelmet.glb");
+    scenes::Scene s = scenes::load_gltf(shared("DamagedHelmet.glb"));
+    // 46,356 is the INDEX count; that is 15,452 triangles over 14,556 vertices.
+    ASSERT_EQ(s.meshes.size(), 1u);
+    EXPECT_EQ(s.num_triangles(), 46356u / 3);
+    EXPECT_EQ(s.meshes[0].num_vertices(), 14556u);
+    EXPECT_FALSE(s.meshes[0].normals.empty());
+    EXPECT_FALSE(s.meshes[0].uvs.empty());
+    check_meshes(s);
+    ASSERT_EQ(s.materials.size(), 1u);
+    const scenes::Material& m = s.materials[0];
+    EXPECT_TRUE(m.is_emissive());
+    ASSERT_NE(m.albedo_texture, scenes::kNoTexture);
+    ASSERT_NE(m.emission_texture, scenes::kNoTexture);
+    EXPECT_EQ(s.textures.size(), 2u) << "base colour + emissive; MR/normal/occlusion not decoded";
+    for (const auto& t : s.textures) {
+        EXPECT_EQ(t.width, 2048u);
+        EXPECT_EQ(t.height, 2048u);
+        EXPECT_EQ(t.rgb.size(), size_t(t.width) * t.height * 3);
+    }
+    // Node rotation is +90 deg about X: the model's local +Z (its height in the file)
+    // becomes world -Y... check the bounds are rotated, i.e. not the raw local bounds.
+    scenes::Bounds3f b = s.bounds();
+    EXPECT_FALSE(b.empty());
+    EXPECT_TRUE(s.lights.empty());
+    EXPECT_FALSE(s.camera.has_value());
+}
+
+TEST(GltfShared, BoomBoxMissingUnneededTexture) {
+    REQUIRE_SHARED("BoomBox/BoomBox.gltf");
+    scenes::Scene s = scenes::load_gltf(shared("BoomBox/BoomBox.gltf"));
+    ASSERT_EQ(s.meshes.size(), 1u);
+    EXPECT_EQ(s.num_triangles(), 18108u / 3);
+    EXPECT_EQ(s.meshes[0].num_vertices(), 3575u);
+    check_meshes(s);
+    EXPECT_TRUE(has_note(s, "BoomBox_occlusionRoughnessMetallic.png")) << "missing texture must be named";
+    ASSERT_EQ(s.materials.size(), 1u);
+    const scenes::Material& m = s.materials[0];
+    ASSERT_NE(m.albedo_texture, scenes::kNoTexture);
+    ASSERT_NE(m.emission_texture, scenes::kNoTexture);
+    EXPECT_EQ(s.textures.size(), 2u);
+    EXPECT_FALSE(s.meshes[0].uvs.empty());
+}
+
+}  // namespace
