@@ -2,16 +2,30 @@
 #pragma once
 
 #include <cstddef>
+#include <cstdint>
 #include <string>
 
 #include "scenes/scene.h"
 
 namespace scenes {
 
+/// Caps on what a document may expand to. Everything a document holds is already bounded
+/// by its size; these bound what it can multiply (instance_node reuse, deep nesting),
+/// so a small hostile file cannot exhaust memory or the stack.
+struct ColladaLimits {
+    uint64_t max_triangles = uint64_t(1) << 26;  ///< after instancing, whole scene
+    uint32_t max_node_depth = 256;               ///< node nesting incl. instance_node
+    uint64_t max_node_visits = uint64_t(1) << 20;
+};
+
 /// Loads a .dae file. Throws SceneError naming the file and the element on bad input.
 Scene load_collada(const std::string& path);
 
 /// Same, from memory (fuzzing, tests). `name` stands for the file in messages.
 Scene load_collada_memory(const void* data, size_t size, const std::string& name);
+
+/// Same with explicit limits (the fuzzer lowers them to stay inside its memory budget).
+Scene load_collada_memory(const void* data, size_t size, const std::string& name,
+                          const ColladaLimits& limits);
 
 }  // namespace scenes
