@@ -10,6 +10,8 @@
 #include <cstdio>
 #include <mutex>
 
+#include <unistd.h>
+
 namespace renderer {
 
 namespace {
@@ -19,7 +21,8 @@ using Clock = std::chrono::steady_clock;
 /// Throttled progress line on stderr: percent, rays/s, time left.
 class Progress {
 public:
-    Progress(bool enabled, size_t total_tiles) : enabled_(enabled), total_(total_tiles) {}
+    Progress(bool enabled, size_t total_tiles)
+        : enabled_(enabled), tty_(::isatty(2) == 1), total_(total_tiles) {}
 
     void tile_done(uint64_t rays) {
         const size_t done = ++done_;
@@ -28,17 +31,20 @@ public:
         std::unique_lock lock(mutex_, std::try_to_lock);
         if (!lock.owns_lock()) return;
         const double t = std::chrono::duration<double>(Clock::now() - start_).count();
-        if (t - last_ < 0.5 && done != total_) return;
+        // A terminal gets a line rewritten twice a second; a log file gets a line every
+        // 10 s so that it stays readable.
+        if (t - last_ < (tty_ ? 0.5 : 10.0) || done == total_) return;
         last_ = t;
         const double frac = double(done) / double(total_);
         const double left = frac > 0 ? t / frac - t : 0.0;
-        std::fprintf(stderr, "\r[PathTracer] Rendering... %3d%% (%.1f Mrays/s, %.0f s left)   ",
-                     int(frac * 100.0), double(rays_.load()) / std::max(t, 1e-9) / 1e6, left);
+        std::fprintf(stderr, "%s[PathTracer] Rendering... %3d%% (%.2f Mrays/s, %.0f s left)%s",
+                     tty_ ? "\r" : "", int(frac * 100.0),
+                     double(rays_.load()) / std::max(t, 1e-9) / 1e6, left, tty_ ? "   " : "\n");
         std::fflush(stderr);
     }
 
 private:
-    bool enabled_;
+    bool enabled_, tty_;
     size_t total_;
     std::atomic<size_t> done_{0};
     std::atomic<uint64_t> rays_{0};
@@ -66,7 +72,6 @@ RenderResult render(const Camera& camera, const Integrator& integrator,
     std::atomic<size_t> tiles_done{0};
     Progress progress(s.progress, num_tiles);
     const auto start = Clock::now();
-    if (s.progress) std::fprintf(stderr, "[PathTracer] Rendering... ");
 
     auto render_tile = [&](size_t tile_index) {
         if (s.cancel && s.cancel->load(std::memory_order_relaxed)) return;
@@ -128,12 +133,14 @@ RenderResult render(const Camera& camera, const Integrator& integrator,
     result.partial = tiles_done.load() < num_tiles;
     if (s.progress) {
         if (result.partial)
-            std::fprintf(stderr, "\r[PathTracer] Rendering... stopped at %d%% (%.4f s)          \n",
+            std::fprintf(stderr, "%s[PathTracer] Rendering... stopped at %d%% (%.4f s)\n",
+                         ::isatty(2) == 1 ? "\r" : "",
                          int(100.0 * double(tiles_done.load()) / double(std::max<size_t>(num_tiles, 1))),
                          result.seconds);
         else
-            std::fprintf(stderr, "\r[PathTracer] Rendering... 100%%! (%.4fs)                      \n",
-                         result.seconds);
+            std::fprintf(stderr, "%s[PathTracer] Rendering... 100%%! (%.4fs)%s\n",
+                         ::isatty(2) == 1 ? "\r" : "", result.seconds,
+                         ::isatty(2) == 1 ? "                              " : "");
     }
     return result;
 }

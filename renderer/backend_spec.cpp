@@ -1,0 +1,60 @@
+#include "renderer/backend_spec.h"
+
+#include <sstream>
+#include <stdexcept>
+
+namespace renderer {
+
+BackendSpec parse_backend_spec(const std::string& spec) {
+    std::vector<std::string> words;
+    std::stringstream ss(spec);
+    for (std::string w; std::getline(ss, w, ':');)
+        if (!w.empty()) words.push_back(w);
+    if (words.empty()) throw std::invalid_argument("empty backend spec");
+    BackendSpec b;
+    b.backend = words[0];
+    if (b.backend != "naive" && b.backend != "custom" && b.backend != "embree")
+        throw std::invalid_argument("backend spec '" + spec + "': unknown backend '" + b.backend +
+                                    "' (naive, custom, embree)");
+    std::string tri = "fast", split = "sah", quality = "high";
+    bool robust = false, count = false;
+    unsigned leaf = 0;
+    for (size_t i = 1; i < words.size(); ++i) {
+        const std::string& w = words[i];
+        if (w == "fast" || w == "watertight") tri = w;
+        else if (b.backend == "custom" && (w == "sah" || w == "midpoint")) split = w;
+        else if (b.backend == "custom" && w.rfind("leaf", 0) == 0 && w.size() > 4) {
+            leaf = unsigned(std::stoul(w.substr(4)));
+            if (leaf < 1 || leaf > 255) throw std::invalid_argument("backend spec '" + spec + "': leaf size 1..255");
+        } else if (b.backend == "embree" && (w == "low" || w == "medium" || w == "high")) quality = w;
+        else if (b.backend == "embree" && w == "robust") robust = true;
+        else if (b.backend == "embree" && w == "count") count = true;
+        else
+            throw std::invalid_argument("backend spec '" + spec + "': unknown word '" + w + "'");
+    }
+    b.options.triangle = tri == "watertight" ? accel::TriangleTest::Watertight : accel::TriangleTest::Fast;
+    b.options.split = split == "midpoint" ? accel::BvhSplit::Midpoint : accel::BvhSplit::Sah;
+    if (leaf) b.options.leaf_size = leaf;
+    b.options.embree_quality = quality == "low"      ? accel::EmbreeQuality::Low
+                               : quality == "medium" ? accel::EmbreeQuality::Medium
+                                                     : accel::EmbreeQuality::High;
+    b.options.embree_robust = robust;
+    b.options.embree_count = count;
+    // Normalised label: embree's triangle test only matters in counting mode.
+    b.label = b.backend;
+    if (b.backend == "custom") b.label += ":" + split + (leaf ? ":leaf" + std::to_string(leaf) : "");
+    if (b.backend == "embree") b.label += ":" + quality + (robust ? ":robust" : "") + (count ? ":count" : "");
+    if (b.backend != "embree" || count) b.label += ":" + tri;
+    return b;
+}
+
+std::vector<BackendSpec> parse_backend_specs(const std::string& list) {
+    std::vector<BackendSpec> out;
+    std::stringstream ss(list);
+    for (std::string s; std::getline(ss, s, ',');)
+        if (!s.empty()) out.push_back(parse_backend_spec(s));
+    if (out.empty()) throw std::invalid_argument("no backends given");
+    return out;
+}
+
+}  // namespace renderer

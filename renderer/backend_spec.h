@@ -1,0 +1,26 @@
+// "custom:sah:watertight", "embree:high:robust", "embree:count", "naive": one string
+// names a backend and its options, for tools that compare several side by side.
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include "accel/accelerator.h"
+
+namespace renderer {
+
+struct BackendSpec {
+    std::string label;    ///< the string as normalised, e.g. "custom:sah:fast"
+    std::string backend;  ///< naive | custom | embree
+    accel::AccelOptions options;
+};
+
+/// Parses one spec; throws std::invalid_argument naming the bad word. Words after the
+/// backend name, in any order: fast|watertight, sah|midpoint, leafN,
+/// low|medium|high, robust, count.
+BackendSpec parse_backend_spec(const std::string& spec);
+
+/// Comma-separated list of specs.
+std::vector<BackendSpec> parse_backend_specs(const std::string& list);
+
+}  // namespace renderer

@@ -1,0 +1,226 @@
+// xcheck [options] SCENE: trace the very same rays through several backends and report,
+// per ray kind, how far they agree with a reference; classify every disagreement.
+#include <CLI/CLI.hpp>
+#include <fmt/format.h>
+
+#include <cstdio>
+#include <fstream>
+#include <map>
+#include <sstream>
+
+#include "renderer/backend_spec.h"
+#include "renderer/raysets.h"
+#include "renderer/scene_geometry.h"
+#include "renderer/xcheck.h"
+#include "scenes/load.h"
+
+namespace {
+
+[[noreturn]] void fail(const std::string& message) {
+    std::fprintf(stderr, "xcheck: error: %s\n", message.c_str());
+    std::exit(2);
+}
+
+/// Hex floats: a dumped ray replays bit for bit.
+std::string ray_line(renderer::RayKind kind, const accel::Ray& r) {
+    return fmt::format("{} {:a} {:a} {:a} {:a} {:a} {:a} {:a} {:a}", renderer::ray_kind_name(kind),
+                       r.org.x, r.org.y, r.org.z, r.dir.x, r.dir.y, r.dir.z, r.t_min, r.t_max);
+}
+
+std::string outcome_text(const renderer::RayOutcome& o) {
+    if (!o.hit) return "miss";
+    return fmt::format("hit geom {} prim {} t {:.9g} uv ({:.6g}, {:.6g})", o.geom, o.prim, o.t, o.u, o.v);
+}
+
+std::vector<renderer::RaySet> read_replay(const std::string& path) {
+    std::ifstream in(path);
+    if (!in) fail(path + ": cannot be opened for reading");
+    std::map<renderer::RayKind, renderer::RaySet> sets;
+    std::string line;
+    for (int lineno = 1; std::getline(in, line); ++lineno) {
+        if (line.empty() || line[0] == '#') continue;
+        std::istringstream ls(line);
+        std::string kind_name, f[8];
+        ls >> kind_name;
+        for (auto& s : f) ls >> s;
+        renderer::RayKind kind;
+        if (!renderer::parse_ray_kind(kind_name, kind))
+            fail(fmt::format("{}:{}: unknown ray kind '{}'", path, lineno, kind_name));
+        float v[8];
+        for (int i = 0; i < 8; ++i) {
+            char* end = nullptr;
+            v[i] = std::strtof(f[i].c_str(), &end);
+            if (f[i].empty() || *end != '\0')
+                fail(fmt::format("{}:{}: expected 8 numbers after the kind", path, lineno));
+        }
+        accel::Ray r;
+        r.org = {v[0], v[1], v[2]};
+        r.dir = {v[3], v[4], v[5]};
+        r.t_min = v[6];
+        r.t_max = v[7];
+        sets[kind].kind = kind;
+        sets[kind].rays.push_back(r);
+    }
+    std::vector<renderer::RaySet> out;
+    for (auto& [k, s] : sets) out.push_back(std::move(s));
+    return out;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+    CLI::App app{"Cross-check backends ray by ray: camera, random, edge/vertex, grazing, shadow and "
+                 "diffuse-bounce rays, each disagreement classified (tie, numerical, real)."};
+    std::string scene_path, backends_arg, reference_arg, kinds_arg, dump_path, replay_path;
+    size_t rays = 200000;
+    uint64_t seed = 1;
+    app.add_option("scene", scene_path, "Scene file (.dae, .gltf, .glb)")->required();
+    app.add_option("--rays", rays, "Rays per kind")->check(CLI::Range(size_t(1), size_t(100000000)));
+    app.add_option("--backends", backends_arg,
+                   "Comma-separated backends to check, e.g. custom:sah:fast,custom:midpoint:watertight,"
+                   "embree:high (default: custom with both splits and both triangle tests, embree; "
+                   "naive too up to 10k triangles)");
+    app.add_option("--reference", reference_arg,
+                   "Reference backend (default: naive:watertight up to 10k triangles, else embree:high)");
+    app.add_option("--kinds", kinds_arg, "Comma-separated ray kinds (default: all): camera,random,"
+                                         "edge-vertex,grazing,shadow,diffuse");
+    app.add_option("--seed", seed, "Seed of the ray sets");
+    app.add_option("--dump", dump_path, "Write the disagreeing rays to FILE (replayable)");
+    app.add_option("--replay", replay_path, "Trace the rays of FILE (from --dump) instead of generating rays")
+        ->check(CLI::ExistingFile);
+    try {
+        app.parse(argc, argv);
+    } catch (const CLI::CallForHelp& e) {
+        return app.exit(e);
+    } catch (const CLI::ParseError& e) {
+        fail(e.what());
+    }
+
+    scenes::Scene scene;
+    try {
+        scene = scenes::load_scene(scene_path);
+    } catch (const scenes::SceneError& e) {
+        fail(e.what());
+    }
+    const uint64_t tris = scene.num_triangles();
+    if (tris == 0 && scene.spheres.empty()) fail(scene_path + ": the scene has no geometry");
+    const bool small = tris <= 10000;
+    const auto available = accel::available_backends();
+    const bool have_embree = std::find(available.begin(), available.end(), "embree") != available.end();
+
+    std::vector<renderer::BackendSpec> specs;
+    renderer::BackendSpec ref;
+    try {
+        ref = renderer::parse_backend_spec(!reference_arg.empty() ? reference_arg
+                                           : small                ? "naive:watertight"
+                                           : have_embree          ? "embree:high"
+                                                                  : "custom:sah:watertight");
+        std::string list = backends_arg;
+        if (list.empty()) {
+            list = "custom:sah:fast,custom:sah:watertight,custom:midpoint:fast,custom:midpoint:watertight";
+            if (have_embree) list += ",embree:high";
+            if (small) list += ",naive:fast";
+        }
+        for (auto& s : renderer::parse_backend_specs(list))
+            if (s.label != ref.label) specs.push_back(s);
+    } catch (const std::invalid_argument& e) {
+        fail(e.what());
+    }
+
+    std::vector<renderer::RayKind> kinds;
+    if (kinds_arg.empty()) {
+        kinds.assign(std::begin(renderer::kAllRayKinds), std::end(renderer::kAllRayKinds));
+    } else {
+        std::stringstream ss(kinds_arg);
+        for (std::string k; std::getline(ss, k, ',');) {
+            renderer::RayKind kind;
+            if (!renderer::parse_ray_kind(k, kind)) fail("--kinds: unknown ray kind '" + k + "'");
+            kinds.push_back(kind);
+        }
+    }
+
+    renderer::SceneGeometry geometry(scene);
+    std::unique_ptr<accel::Accelerator> ref_accel;
+    std::vector<std::unique_ptr<accel::Accelerator>> accels;
+    try {
+        ref_accel = renderer::build_accelerator(ref.backend, geometry, ref.options, false);
+        for (const auto& s : specs) accels.push_back(renderer::build_accelerator(s.backend, geometry, s.options, false));
+    } catch (const accel::AccelError& e) {
+        fail(e.what());
+    }
+
+    std::vector<renderer::RaySet> sets;
+    if (!replay_path.empty()) {
+        sets = read_replay(replay_path);
+    } else {
+        renderer::RaySetOptions ro;
+        ro.seed = seed;
+        ro.count = rays;
+        for (renderer::RayKind k : kinds) {
+            std::fprintf(stderr, "[xcheck] generating %zu %s rays\n", rays, renderer::ray_kind_name(k));
+            sets.push_back(renderer::make_ray_set(k, scene, *ref_accel, ro));
+        }
+    }
+
+    std::printf("scene %s: %llu triangles, %zu spheres; reference %s (%s)\n", scene_path.c_str(),
+                (unsigned long long)tris, scene.spheres.size(), ref.label.c_str(),
+                ref_accel->info().backend.c_str());
+    std::printf("%-12s %-26s %9s %10s %10s %11s %7s %9s %6s %9s\n", "kind", "backend", "rays", "hit-agree",
+                "prim-agree", "max|dt|/t", "ties", "numerical", "real", "tests/ray");
+    std::vector<renderer::Disagreement> bad;
+    uint64_t total_real = 0, total_rays = 0;
+    for (const auto& set : sets) {
+        for (size_t i = 0; i < accels.size(); ++i) {
+            std::fprintf(stderr, "[xcheck] %s rays through %s\n", renderer::ray_kind_name(set.kind),
+                         specs[i].label.c_str());
+            renderer::KindReport r = renderer::compare_backends(*ref_accel, ref.label, *accels[i],
+                                                                specs[i].label, set, geometry, &bad);
+            total_real += r.real;
+            total_rays += r.rays;
+            std::string tpr = accels[i]->info().counts_prims ? fmt::format("{:.2f}", r.stats.tests_per_ray()) : "-";
+            std::printf("%-12s %-26s %9llu %9.5f%% %9.5f%% %11.3g %7llu %9llu %6llu %9s\n",
+                        renderer::ray_kind_name(set.kind), specs[i].label.c_str(), (unsigned long long)r.rays,
+                        r.rays ? 100.0 * double(r.hit_agree) / double(r.rays) : 100.0,
+                        r.rays ? 100.0 * double(r.prim_agree) / double(r.rays) : 100.0, r.max_rel_dt,
+                        (unsigned long long)r.ties, (unsigned long long)r.numerical,
+                        (unsigned long long)r.real, tpr.c_str());
+            std::fflush(stdout);
+        }
+    }
+    std::printf("total: %llu ray comparisons, %llu real disagreements\n", (unsigned long long)total_rays,
+                (unsigned long long)total_real);
+
+    if (!replay_path.empty()) {
+        // Show every replayed ray's outcome per backend.
+        for (const auto& set : sets)
+            for (const auto& ray : set.rays) {
+                std::printf("%s\n", ray_line(set.kind, ray).c_str());
+                renderer::RaySet one;
+                one.kind = set.kind;
+                one.rays = {ray};
+                accel::TraceStats st;
+                auto a = renderer::trace_set(*ref_accel, one, st, true);
+                std::printf("  %-26s %s\n", ref.label.c_str(), outcome_text(a[0]).c_str());
+                for (size_t i = 0; i < accels.size(); ++i) {
+                    auto b = renderer::trace_set(*accels[i], one, st, true);
+                    std::printf("  %-26s %s\n", specs[i].label.c_str(), outcome_text(b[0]).c_str());
+                }
+            }
+    }
+    if (!dump_path.empty()) {
+        const std::string tmp = dump_path + ".tmp";
+        {
+            std::ofstream out(tmp);
+            if (!out) fail(dump_path + ": cannot be written");
+            out << "# xcheck disagreements on " << scene_path << "; reference " << ref.label << "\n";
+            for (const auto& d : bad)
+                out << "# " << d.backend << " " << renderer::verdict_name(d.verdict) << ": ref "
+                    << outcome_text(d.ref) << " / other " << outcome_text(d.other) << "\n"
+                    << ray_line(d.kind, d.ray) << "\n";
+            if (!out) fail(dump_path + ": write failed");
+        }
+        if (std::rename(tmp.c_str(), dump_path.c_str()) != 0) fail(dump_path + ": cannot rename into place");
+        std::printf("wrote %zu disagreeing rays to %s\n", bad.size(), dump_path.c_str());
+    }
+    return total_real > 0 ? 1 : 0;
+}
