@@ -15,7 +15,7 @@ namespace scenes {
 struct ColladaLimits {
     uint64_t max_triangles = uint64_t(1) << 26;  ///< after instancing, whole scene
     uint32_t max_node_depth = 256;               ///< node nesting incl. instance_node
-    uint64_t max_node_visits = uint64_t(1) << 20;
+    uint64_t max_node_visits = uint64_t(1) << 18;
 };
 
 /// Loads a .dae file. Throws SceneError naming the file and the element on bad input.
