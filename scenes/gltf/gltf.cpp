@@ -275,7 +275,6 @@ constexpr uint32_t kCtByte = ct_bit(TINYGLTF_COMPONENT_TYPE_BYTE);
 constexpr uint32_t kCtUByte = ct_bit(TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE);
 constexpr uint32_t kCtShort = ct_bit(TINYGLTF_COMPONENT_TYPE_SHORT);
 constexpr uint32_t kCtUShort = ct_bit(TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT);
-constexpr uint32_t kCtUInt = ct_bit(TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT);
 
 /// Which component types an attribute may use (core spec + KHR_mesh_quantization) and
 /// whether integer components must be normalized.
@@ -794,6 +793,8 @@ uint32_t Loader::material_index(int mi, const std::string& user) {
             fail(mdesc + ": emission (emissiveFactor x emissiveStrength) must be finite and non-negative");
         out.emission = emissive;
 
+        if (pbr.baseColorTexture.texCoord < 0 || g.emissiveTexture.texCoord < 0)
+            fail(mdesc + ": negative texCoord");
         auto note_transform = [&](const tinygltf::TextureInfo& ti, const char* slot) {
             if (ti.extensions.count("KHR_texture_transform"))
                 ignored_material_features_.insert(std::string("KHR_texture_transform (") + slot + ")");
