@@ -2,12 +2,12 @@
 // each file's own JSON/accessors where practical, not copied from the loader.
 #include <gtest/gtest.h>
 
-#include <chrono>
 #include <cmath>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <string>
+#include <utility>
 
 #include "scenes/gltf/gltf.h"
 
@@ -21,6 +21,15 @@ std::string shared(const std::string& rel) { return std::string(PT_SHARED_SCENES
             GTEST_SKIP() << "shared scene folder " << PT_SHARED_SCENES                        \
                          << "/gltf not available (" << rel << ")";                            \
     } while (0)
+
+/// Width/height from a PNG's IHDR, read independently of the loader.
+std::pair<uint32_t, uint32_t> png_size(const std::string& path) {
+    std::ifstream f(path, std::ios::binary);
+    unsigned char h[24] = {};
+    f.read(reinterpret_cast<char*>(h), 24);
+    auto be = [&](int o) { return (uint32_t(h[o]) << 24) | (uint32_t(h[o + 1]) << 16) | (uint32_t(h[o + 2]) << 8) | h[o + 3]; };
+    return {be(16), be(20)};
+}
 
 bool has_note(const scenes::Scene& s, const std::string& needle) {
     for (const std::string& n : s.notes)
@@ -68,9 +77,10 @@ TEST(GltfShared, Suzanne) {
     // Only the base colour image is decoded; the metallic-roughness one is not.
     ASSERT_EQ(s.textures.size(), 1u);
     const scenes::Texture& t = s.textures[m.albedo_texture];
-    EXPECT_EQ(t.width, 1024u);
-    EXPECT_EQ(t.height, 1024u);
-    EXPECT_EQ(t.rgb.size(), size_t(1024) * 1024 * 3);
+    auto [w, h] = png_size(shared("Suzanne/Suzanne_BaseColor.png"));
+    EXPECT_EQ(t.width, w);
+    EXPECT_EQ(t.height, h);
+    EXPECT_EQ(t.rgb.size(), size_t(w) * h * 3);
     for (float v : t.rgb) ASSERT_TRUE(v >= 0.0f && v <= 1.0f);
     EXPECT_TRUE(s.lights.empty());
     EXPECT_FALSE(s.camera.has_value());
@@ -98,10 +108,15 @@ TEST(GltfShared, DamagedHelmet) {
         EXPECT_EQ(t.height, 2048u);
         EXPECT_EQ(t.rgb.size(), size_t(t.width) * t.height * 3);
     }
-    // Node rotation is +90 deg about X: the model's local +Z (its height in the file)
-    // becomes world -Y... check the bounds are rotated, i.e. not the raw local bounds.
+    // The node rotates +90 deg about X, (x,y,z) -> (x,-z,y). POSITION accessor bounds in
+    // the file: min (-0.94746, -1.18716, -0.90099), max (0.94250, 0.81285, 0.90097).
     scenes::Bounds3f b = s.bounds();
-    EXPECT_FALSE(b.empty());
+    EXPECT_NEAR(b.lo.x, -0.94746f, 1e-4f);
+    EXPECT_NEAR(b.hi.x, 0.94250f, 1e-4f);
+    EXPECT_NEAR(b.lo.y, -0.90097f, 1e-4f);
+    EXPECT_NEAR(b.hi.y, 0.90099f, 1e-4f);
+    EXPECT_NEAR(b.lo.z, -1.18716f, 1e-4f);
+    EXPECT_NEAR(b.hi.z, 0.81285f, 1e-4f);
     EXPECT_TRUE(s.lights.empty());
     EXPECT_FALSE(s.camera.has_value());
 }
@@ -119,7 +134,15 @@ TEST(GltfShared, BoomBoxMissingUnneededTexture) {
     ASSERT_NE(m.albedo_texture, scenes::kNoTexture);
     ASSERT_NE(m.emission_texture, scenes::kNoTexture);
     EXPECT_EQ(s.textures.size(), 2u);
+    auto [bw, bh] = png_size(shared("BoomBox/BoomBox_baseColor.png"));
+    auto [ew, eh] = png_size(shared("BoomBox/BoomBox_emissive.png"));
+    EXPECT_EQ(s.textures[m.albedo_texture].width, bw);
+    EXPECT_EQ(s.textures[m.albedo_texture].height, bh);
+    EXPECT_EQ(s.textures[m.emission_texture].width, ew);
+    EXPECT_EQ(s.textures[m.emission_texture].height, eh);
     EXPECT_FALSE(s.meshes[0].uvs.empty());
+    // Normal and occlusion maps are reported as ignored, not decoded.
+    EXPECT_TRUE(has_note(s, "normalTexture"));
 }
 
 }  // namespace
