@@ -2,6 +2,7 @@
 // depth-first 32-byte nodes, pre-gathered leaf primitives, templated traversal.
 #include "accel/bvh/bvh.h"
 
+#include <emmintrin.h>  // SSE2: the x86-64 baseline, no -march needed
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 #include <tbb/parallel_invoke.h>
@@ -47,6 +48,22 @@ static_assert(sizeof(Node) == 32, "two nodes per cache line");
 struct PrimData {
     Vec3f v0, v1, v2;
 };
+
+/// 4-wide node for traversal, collapsed from the binary tree (the binary tree stays the
+/// build output and what inspect_bvh/SAH cost describe). Four child boxes in SoA form so
+/// one SSE2 slab test covers all four (as Embree's BVH4, Wald et al. 2008 "Getting Rid
+/// of Packets"; Dammertz et al. 2008 "Shallow Bounding Volume Hierarchies"). 128 bytes,
+/// two cache lines. Unused lanes hold an inverted box (+inf/-inf) that no ray hits,
+/// without NaN: inf - finite stays inf.
+struct alignas(64) Node4 {
+    float b[6][4];      ///< [lo.x, lo.y, lo.z, hi.x, hi.y, hi.z][lane]
+    uint32_t child[4];  ///< interior: Node4 index; leaf: kLeaf | first primitive; kEmpty
+    uint32_t count[4];  ///< leaf: primitive count; otherwise 0
+
+    static constexpr uint32_t kLeaf = 0x80000000u;
+    static constexpr uint32_t kEmpty = 0xFFFFFFFFu;
+};
+static_assert(sizeof(Node4) == 128);
 
 // ---------------------------------------------------------------------------------
 // Ray/box test
@@ -410,12 +427,59 @@ public:
     std::vector<PrimRef> refs_;    ///< leaf order
     std::vector<PrimData> data_;   ///< leaf order, parallel to refs_
     std::vector<uint8_t> sphere_;  ///< leaf order, 1 = sphere; empty if no spheres
+    std::vector<Node4> wide_;      ///< traversal tree, collapsed from nodes_
     uint32_t leaf_size_ = 4;
     BuildInfo info_;
 
 protected:
     void build(std::span<const GeometryView> geometry, const AccelOptions& opt);
+    uint32_t collapse(uint32_t binary);
 };
+
+/// Turns binary node `binary` (interior) into one Node4 by repeatedly opening the
+/// interior child with the largest surface area (the one most rays would enter) until
+/// four children are gathered; children are emitted depth-first after their parent.
+uint32_t BvhBase::collapse(uint32_t binary) {
+    uint32_t kids[4] = {nodes_[binary].offset, nodes_[binary].offset + 1, 0, 0};
+    int n = 2;
+    while (n < 4) {
+        int best = -1;
+        float best_area = -1.0f;
+        for (int i = 0; i < n; ++i) {
+            const Node& c = nodes_[kids[i]];
+            if (!c.is_leaf() && c.bounds().surface_area() > best_area) {
+                best = i;
+                best_area = c.bounds().surface_area();
+            }
+        }
+        if (best < 0) break;
+        const uint32_t open = kids[best];
+        kids[best] = nodes_[open].offset;
+        kids[n++] = nodes_[open].offset + 1;
+    }
+    const uint32_t self = uint32_t(wide_.size());
+    wide_.emplace_back();
+    for (int i = 0; i < 4; ++i) {
+        Node4& w = wide_[self];
+        if (i >= n) {
+            for (int a = 0; a < 3; ++a) w.b[a][i] = kInfinity, w.b[a + 3][i] = -kInfinity;
+            w.child[i] = Node4::kEmpty;
+            w.count[i] = 0;
+            continue;
+        }
+        const Node& c = nodes_[kids[i]];
+        for (int k = 0; k < 6; ++k) w.b[k][i] = c.b[k];
+        if (c.is_leaf()) {
+            w.child[i] = Node4::kLeaf | c.offset;
+            w.count[i] = c.count();
+        } else {
+            w.count[i] = 0;
+            const uint32_t ci = collapse(kids[i]);  // may reallocate wide_: no reference kept
+            wide_[self].child[i] = ci;
+        }
+    }
+    return self;
+}
 
 void BvhBase::build(std::span<const GeometryView> geometry, const AccelOptions& opt) {
     const auto start = std::chrono::steady_clock::now();
@@ -485,6 +549,23 @@ void BvhBase::build(std::span<const GeometryView> geometry, const AccelOptions& 
                           });
     });
 
+    if (!nodes_.empty()) {
+        wide_.reserve(nodes_.size() / 2 + 1);
+        if (nodes_[0].is_leaf()) {  // a lone leaf still gets a Node4 around it
+            wide_.emplace_back();
+            Node4& w = wide_[0];
+            for (int i = 0; i < 4; ++i) {
+                for (int a = 0; a < 3; ++a)
+                    w.b[a][i] = i ? kInfinity : nodes_[0].b[a],
+                    w.b[a + 3][i] = i ? -kInfinity : nodes_[0].b[a + 3];
+                w.child[i] = i ? Node4::kEmpty : Node4::kLeaf | nodes_[0].offset;
+                w.count[i] = i ? 0 : nodes_[0].count();
+            }
+        } else {
+            collapse(0);
+        }
+    }
+
     const TreeFacts f = tree_facts(nodes_);
     const char* split = opt.split == BvhSplit::Sah ? "sah" : "midpoint";
     const char* test = opt.triangle == TriangleTest::Watertight ? "watertight" : "fast";
@@ -494,7 +575,7 @@ void BvhBase::build(std::span<const GeometryView> geometry, const AccelOptions& 
     info_.leaves = f.leaves;
     info_.depth = f.depth;
     info_.sah_cost = f.sah_cost;
-    info_.bytes = nodes_.capacity() * sizeof(Node) + refs_.capacity() * sizeof(PrimRef) +
+    info_.bytes = nodes_.capacity() * sizeof(Node) + wide_.capacity() * sizeof(Node4) + refs_.capacity() * sizeof(PrimRef) +
                   data_.capacity() * sizeof(PrimData) + sphere_.capacity() +
                   geometry_.capacity() * sizeof(GeometryView);
     info_.counts_nodes = true;
@@ -538,38 +619,54 @@ private:
     /// Returns the leaf-order index of the closest (AnyHit: some) primitive hit in
     /// [ray.t_min, t], or kInvalidId; shrinks t as hits are found.
     ///
-    /// Counting: nodes_visited counts ray-box tests: the root once, then both children
-    /// of every interior node that is processed (a popped node whose entry distance is
-    /// already beyond the closest hit is skipped without a box test and not counted).
+    /// Counting: nodes_visited counts ray-box tests: the scene (root) box once, then,
+    /// for every 4-wide node processed, its real children (2 to 4; the SSE test of
+    /// unused lanes is not counted). A popped subtree whose entry distance is already
+    /// beyond the closest hit is dropped without a box test and not counted.
     /// prim_tests counts every call of the shared primitive intersector.
     template <bool AnyHit, bool HasSpheres>
     uint32_t traverse(const Ray& ray, float& t, float& u, float& v, TraceStats& stats) const {
         if (nodes_.empty()) return kInvalidId;
         const RayBox rb(ray);
-        const WatertightRay wr = Test == TriangleTest::Watertight ? WatertightRay(ray.dir)
-                                                                  : WatertightRay();
-        const Node* nodes = nodes_.data();
-        const PrimData* data = data_.data();
         const float t_min = ray.t_min;
         uint64_t boxes = 1, tests = 0;
         uint32_t found = kInvalidId;
 
+        // One scalar test of the scene box first: cheap, and it turns away every ray
+        // that misses the scene (most camera rays on a lone object) before any SIMD work.
         float entry;
-        if (!rb.hit(nodes[0], t_min, t, entry)) {
+        if (!rb.hit(nodes_[0], t_min, t, entry)) {
             stats.nodes_visited += boxes;
             return kInvalidId;
         }
+        const WatertightRay wr = Test == TriangleTest::Watertight ? WatertightRay(ray.dir)
+                                                                  : WatertightRay();
+        const Node4* wide = wide_.data();
+        const PrimData* data = data_.data();
+
+        // Per-ray SSE constants. Near/far plane rows are picked by the sign bit, as in
+        // RayBox (Williams et al. 2005), so every lane needs one sub and one mul per plane.
+        const __m128 ox = _mm_set1_ps(ray.org.x), oy = _mm_set1_ps(ray.org.y),
+                     oz = _mm_set1_ps(ray.org.z);
+        const __m128 ix = _mm_set1_ps(rb.inv[0]), iy = _mm_set1_ps(rb.inv[1]),
+                     iz = _mm_set1_ps(rb.inv[2]);
+        const int nx = rb.near[0], ny = rb.near[1], nz = rb.near[2];
+        const int fx = rb.far[0], fy = rb.far[1], fz = rb.far[2];
+        const __m128 vt_min = _mm_set1_ps(t_min), vinf = _mm_set1_ps(kInfinity),
+                     vscale = _mm_set1_ps(kFarScale);
+
         struct Entry {
-            uint32_t idx;
+            uint32_t ref, count;
             float t;
         };
-        Entry stack[kStackSize];
+        // Each 4-wide level pushes at most 3 entries and is no deeper than the binary
+        // tree, whose depth the build bounds by kStackSize.
+        Entry stack[3 * kStackSize];
         uint32_t sp = 0;
-        uint32_t idx = 0;
+        uint32_t ref = 0, count = 0;  // start at wide_[0] (interior)
         for (;;) {
-            const Node& n = nodes[idx];
-            if (n.is_leaf()) {
-                const uint32_t first = n.offset, last = n.offset + n.count();
+            if (ref & Node4::kLeaf) {
+                const uint32_t first = ref & ~Node4::kLeaf, last = first + count;
                 for (uint32_t i = first; i < last; ++i) {
                     ++tests;
                     const PrimData& d = data[i];
@@ -595,20 +692,52 @@ private:
                     }
                 }
             } else {
-                const Node* c = nodes + n.offset;
-                float e0, e1;
-                const bool h0 = rb.hit(c[0], t_min, t, e0);
-                const bool h1 = rb.hit(c[1], t_min, t, e1);
-                boxes += 2;
-                if (h0 && h1) {
-                    // Near child first so the far one is often culled by a shrunk t.
-                    const bool swap = e1 < e0;
-                    idx = n.offset + (swap ? 1u : 0u);
-                    stack[sp++] = {n.offset + (swap ? 0u : 1u), swap ? e0 : e1};
-                    continue;
-                }
-                if (h0 || h1) {
-                    idx = n.offset + (h0 ? 0u : 1u);
+                const Node4& n = wide[ref];
+                // Slab test of four boxes. _mm_max_ps/_mm_min_ps return their SECOND
+                // operand when either is NaN, so the possibly-NaN slab distance goes
+                // first and the never-NaN accumulator second (= robust_max/robust_min).
+                const __m128 tnx = _mm_mul_ps(_mm_sub_ps(_mm_load_ps(n.b[nx]), ox), ix);
+                const __m128 tny = _mm_mul_ps(_mm_sub_ps(_mm_load_ps(n.b[ny]), oy), iy);
+                const __m128 tnz = _mm_mul_ps(_mm_sub_ps(_mm_load_ps(n.b[nz]), oz), iz);
+                const __m128 tfx = _mm_mul_ps(_mm_sub_ps(_mm_load_ps(n.b[fx]), ox), ix);
+                const __m128 tfy = _mm_mul_ps(_mm_sub_ps(_mm_load_ps(n.b[fy]), oy), iy);
+                const __m128 tfz = _mm_mul_ps(_mm_sub_ps(_mm_load_ps(n.b[fz]), oz), iz);
+                const __m128 t0 = _mm_max_ps(tnx, _mm_max_ps(tny, _mm_max_ps(tnz, vt_min)));
+                const __m128 t1f = _mm_min_ps(tfx, _mm_min_ps(tfy, _mm_min_ps(tfz, vinf)));
+                // Ize 2013: conservative far distance (see RayBox::hit).
+                const __m128 t1 = _mm_mul_ps(_mm_min_ps(t1f, _mm_set1_ps(t)), vscale);
+                unsigned mask = unsigned(_mm_movemask_ps(_mm_cmple_ps(t0, t1)));
+                boxes += 1 + (n.child[1] != Node4::kEmpty) + (n.child[2] != Node4::kEmpty) +
+                         (n.child[3] != Node4::kEmpty);
+                if (mask) {
+                    alignas(16) float dist[4];
+                    _mm_store_ps(dist, t0);
+                    int i = __builtin_ctz(mask);
+                    mask &= mask - 1;
+                    if (!mask) {  // one child hit: the common case deep in the tree
+                        ref = n.child[i];
+                        count = n.count[i];
+                        continue;
+                    }
+                    // Several hits: push them farthest first so the nearest is visited
+                    // next and the others are likely culled by the shrunk t on pop.
+                    // Insertion sort into the stack top (at most 4 items).
+                    const uint32_t base = sp;
+                    for (;;) {
+                        Entry e{n.child[i], n.count[i], dist[i]};
+                        uint32_t k = sp++;
+                        while (k > base && stack[k - 1].t < e.t) {
+                            stack[k] = stack[k - 1];
+                            --k;
+                        }
+                        stack[k] = e;
+                        if (!mask) break;
+                        i = __builtin_ctz(mask);
+                        mask &= mask - 1;
+                    }
+                    const Entry& nearest = stack[--sp];
+                    ref = nearest.ref;
+                    count = nearest.count;
                     continue;
                 }
             }
@@ -619,9 +748,10 @@ private:
                     stats.prim_tests += tests;
                     return found;
                 }
-                const Entry e = stack[--sp];
-                if (e.t <= t * kFarScale) {  // same tolerance as RayBox::hit
-                    idx = e.idx;
+                const Entry& e = stack[--sp];
+                if (e.t <= t * kFarScale) {  // same tolerance as the box test
+                    ref = e.ref;
+                    count = e.count;
                     break;
                 }
             }
@@ -724,6 +854,54 @@ std::optional<BvhReport> inspect_bvh(const Accelerator& accel) {
             return a.geom == b.geom && a.prim == b.prim;
         });
     if (!same_set) fail(r.prims_once, "leaf primitives differ from the collected set");
+
+    // The 4-wide traversal tree: every slot reached through exactly one leaf lane, every
+    // lane box inside the box its parent lane gave, leaf lanes containing their prims.
+    const auto& wide = bvh->wide_;
+    if (nodes.empty() != wide.empty()) fail(r.wide_ok, "4-wide tree missing or extra");
+    if (!wide.empty()) {
+        std::vector<uint32_t> wcovered(bvh->refs_.size(), 0);
+        struct Item {
+            uint32_t idx;
+            Bounds3f parent;
+        };
+        std::vector<Item> stack{{0, nodes[0].bounds()}};
+        uint64_t visited = 0;
+        while (!stack.empty() && visited <= wide.size()) {
+            const Item it = stack.back();
+            stack.pop_back();
+            ++visited;
+            const Node4& w = wide[it.idx];
+            for (int i = 0; i < 4; ++i) {
+                if (w.child[i] == Node4::kEmpty) continue;
+                const Bounds3f lb{{w.b[0][i], w.b[1][i], w.b[2][i]}, {w.b[3][i], w.b[4][i], w.b[5][i]}};
+                if (!it.parent.contains(lb)) fail(r.wide_ok, "4-wide lane sticks out of its parent");
+                if (w.child[i] & Node4::kLeaf) {
+                    const uint32_t first = w.child[i] & ~Node4::kLeaf;
+                    if (w.count[i] == 0 || uint64_t(first) + w.count[i] > wcovered.size()) {
+                        fail(r.wide_ok, "4-wide leaf range bad");
+                        continue;
+                    }
+                    for (uint32_t k = first; k < first + w.count[i]; ++k) {
+                        ++wcovered[k];
+                        const PrimRef ref = bvh->refs_[k];
+                        if (!lb.contains(primitive_bounds(bvh->geometry_[ref.geom], ref.prim)))
+                            fail(r.wide_ok, "4-wide leaf does not contain its primitive");
+                    }
+                } else if (w.child[i] <= it.idx || w.child[i] >= wide.size()) {
+                    fail(r.wide_ok, "4-wide child index bad");
+                } else {
+                    stack.push_back({w.child[i], lb});
+                }
+            }
+        }
+        if (visited != wide.size()) fail(r.wide_ok, "4-wide nodes unreachable or shared");
+        for (uint32_t c : wcovered)
+            if (c != 1) {
+                fail(r.wide_ok, "4-wide tree covers a slot " + std::to_string(c) + " times");
+                break;
+            }
+    }
     return r;
 }
 
