@@ -94,7 +94,12 @@ TEST(ColladaShared, EveryFileLoadsWithItsFacts) {
             std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
         // Informational only (no threshold): the figures go into the loader's report.
         std::cout << file << ": " << s.num_triangles() << " triangles, " << s.spheres.size()
-                  << " spheres, " << s.lights.size() << " lights, " << s.materials.size()
+                  << " spheres, lights (area/point/dir/spot/env) "
+                  << count_lights(s, LightType::Area) << "/" << count_lights(s, LightType::Point)
+                  << "/" << count_lights(s, LightType::Directional) << "/"
+                  << count_lights(s, LightType::Spot) << "/"
+                  << count_lights(s, LightType::Environment) << ", "
+                  << count_emissive_meshes(s) << " emissive meshes, " << s.materials.size()
                   << " materials, " << s.notes.size() << " notes, " << ms << " ms\n";
         check_invariants(s, file);
         EXPECT_EQ(s.up, Vec3f(0, 0, 1)) << "all course files are Z_UP";
