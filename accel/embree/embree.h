@@ -1,12 +1,26 @@
 #pragma once
 #include <memory>
 #include <span>
+#include <string>
 
 #include "accel/accelerator.h"
 
 namespace accel {
 /// Intel Embree 3 behind our interface. The only code that includes Embree headers
 /// lives in this directory.
+///
+/// Normal mode: triangles are Embree triangles sharing the caller's buffers (no copy);
+/// spheres are a user geometry running accel::intersect_sphere. Counting mode
+/// (options.embree_count): every primitive is a user geometry running
+/// accel::intersect_primitive, so prim_tests are counted on the same terms as our BVH.
+/// Embree errors surface as AccelError("Embree error RTC_ERROR_...: text").
 std::unique_ptr<Accelerator> make_embree(std::span<const GeometryView> geometry,
                                          const AccelOptions& options);
+
+/// As make_embree, with `extra_device_config` appended to the rtcNewDevice config string
+/// (e.g. "verbose=1" or "tri_accel=bvh4.triangle4v"). For experiments and for the tests
+/// that provoke genuine Embree errors through the real error path.
+std::unique_ptr<Accelerator> make_embree(std::span<const GeometryView> geometry,
+                                         const AccelOptions& options,
+                                         const std::string& extra_device_config);
 }  // namespace accel
