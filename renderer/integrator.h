@@ -49,8 +49,10 @@ public:
 };
 
 /// Throws std::invalid_argument naming the integrator when it is unknown or unavailable.
+class LightSet;
 std::unique_ptr<Integrator> make_integrator(const IntegratorSettings& settings,
                                             const scenes::Scene& scene,
-                                            const SceneGeometry& geometry);
+                                            const SceneGeometry& geometry,
+                                            const LightSet* lights);
 
 }  // namespace renderer

@@ -1,6 +1,23 @@
 #include "renderer/interaction.h"
 
+#include <algorithm>
+#include <cmath>
+
 namespace renderer {
+
+Vec3f texel(const scenes::Scene& scene, uint32_t texture, const Vec2f& uv) {
+    if (texture == scenes::kNoTexture || texture >= scene.textures.size()) return Vec3f(1.0f);
+    const scenes::Texture& t = scene.textures[texture];
+    if (t.width == 0 || t.height == 0 || t.rgb.size() < size_t(t.width) * t.height * 3) return Vec3f(1.0f);
+    auto wrap = [](float x) { return x - std::floor(x); };
+    float fu = wrap(uv.x), fv = wrap(uv.y);
+    if (!std::isfinite(fu)) fu = 0;
+    if (!std::isfinite(fv)) fv = 0;
+    const uint32_t x = std::min(t.width - 1, uint32_t(fu * float(t.width)));
+    const uint32_t y = std::min(t.height - 1, uint32_t(fv * float(t.height)));
+    const float* p = &t.rgb[(size_t(y) * t.width + x) * 3];
+    return {p[0], p[1], p[2]};
+}
 
 Interaction make_interaction(const scenes::Scene& scene, const SceneGeometry& geometry,
                              const accel::Ray& ray, const accel::Hit& hit) {
@@ -11,6 +28,7 @@ Interaction make_interaction(const scenes::Scene& scene, const SceneGeometry& ge
     it.ns = it.ng;
     it.material = geometry.material(hit.geom_id, hit.prim_id);
     const GeomSource& src = geometry.source(hit.geom_id);
+    it.sphere = src.kind == GeomSource::Spheres;
     if (src.kind == GeomSource::Mesh) {
         const scenes::Mesh& m = scene.meshes[src.mesh];
         const uint32_t* idx = &m.indices[3 * size_t(hit.prim_id)];

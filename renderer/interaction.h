@@ -17,7 +17,11 @@ struct Interaction {
     Vec2f uv;       ///< texture coordinates if the mesh stores them
     uint32_t material = 0;
     float t = 0;
+    bool sphere = false;  ///< analytic sphere (emits on both sides)
 };
+
+/// Texture value at uv (nearest texel, wrapping); white for kNoTexture.
+Vec3f texel(const scenes::Scene& scene, uint32_t texture, const Vec2f& uv);
 
 Interaction make_interaction(const scenes::Scene& scene, const SceneGeometry& geometry,
                              const accel::Ray& ray, const accel::Hit& hit);

@@ -6,6 +6,7 @@
 #include <tbb/task_arena.h>
 
 #include <algorithm>
+#include <cmath>
 #include <chrono>
 #include <cstdio>
 #include <mutex>
@@ -60,7 +61,7 @@ RenderResult render(const Camera& camera, const Integrator& integrator,
     RenderResult result;
     result.image = Image(s.width, s.height,
                          {"R", "G", "B", "N.X", "N.Y", "N.Z", "albedo.R", "albedo.G", "albedo.B",
-                          "Z", "samples"});
+                          "Z", "samples", "variance", "cost.nodes", "cost.tests", "nan"});
     Cell cell = s.cell.value_or(Cell{0, 0, s.width, s.height});
     cell.w = std::min(cell.w, s.width - cell.x);
     cell.h = std::min(cell.h, s.height - cell.y);
@@ -68,7 +69,7 @@ RenderResult render(const Camera& camera, const Integrator& integrator,
     const size_t num_tiles = size_t(tiles_x) * size_t(tiles_y);
 
     tbb::enumerable_thread_specific<accel::TraceStats> thread_stats;
-    tbb::enumerable_thread_specific<uint64_t> thread_samples(0);
+    tbb::enumerable_thread_specific<uint64_t> thread_samples(0), thread_nans(0);
     std::atomic<size_t> tiles_done{0};
     Progress progress(s.progress, num_tiles);
     const auto start = Clock::now();
@@ -81,13 +82,16 @@ RenderResult render(const Camera& camera, const Integrator& integrator,
         const int y0 = cell.y + int(tile_index / tiles_x) * s.tile;
         const int x1 = std::min(x0 + s.tile, cell.x + cell.w);
         const int y1 = std::min(y0 + s.tile, cell.y + cell.h);
-        uint64_t samples = 0;
+        uint64_t samples = 0, nans = 0;
         for (int y = y0; y < y1; ++y)
             for (int x = x0; x < x1; ++x) {
                 Rng rng(s.seed, uint64_t(y) * uint64_t(s.width) + uint64_t(x));
+                const uint64_t nodes0 = stats.nodes_visited, tests0 = stats.prim_tests;
                 Vec3f sum(0.0f), nsum(0.0f), asum(0.0f);
                 float dsum = 0.0f;
-                for (int i = 0; i < s.spp; ++i) {
+                double s1 = 0.0, s2 = 0.0;  // illuminance sums for the confidence test
+                int n = 0, taken = 0, bad = 0;
+                while (taken < s.spp) {
                     // One sample sits at the pixel centre (as the course does); more are
                     // jittered uniformly inside the pixel.
                     float jx = 0.5f, jy = 0.5f;
@@ -98,20 +102,41 @@ RenderResult render(const Camera& camera, const Integrator& integrator,
                     const accel::Ray ray = camera.generate_ray((float(x) + jx) / float(s.width),
                                                                (float(y) + jy) / float(s.height));
                     SampleContext ctx{accel, stats, rng, {}};
-                    sum += integrator.li(ray, ctx);
-                    nsum += ctx.aov.normal;
-                    asum += ctx.aov.albedo;
-                    dsum += ctx.aov.depth;
+                    const Vec3f L = integrator.li(ray, ctx);
+                    ++taken;
+                    if (!accel::is_finite(L)) {
+                        ++bad;  // a NaN/Inf sample is counted and reported, never averaged
+                    } else {
+                        sum += L;
+                        nsum += ctx.aov.normal;
+                        asum += ctx.aov.albedo;
+                        dsum += ctx.aov.depth;
+                        const double lum = 0.2126 * L.x + 0.7152 * L.y + 0.0722 * L.z;
+                        s1 += lum;
+                        s2 += lum * lum;
+                        ++n;
+                    }
+                    if (s.adaptive_batch > 0 && taken % s.adaptive_batch == 0 && n > 1) {
+                        const double mu = s1 / n;
+                        const double var = std::max(0.0, (s2 - s1 * s1 / n) / (n - 1));
+                        if (1.96 * std::sqrt(var / n) <= double(s.adaptive_tol) * mu) break;
+                    }
                 }
-                samples += uint64_t(s.spp);
-                const float inv = 1.0f / float(s.spp);
+                samples += uint64_t(taken);
+                nans += uint64_t(bad);
+                const float inv = n > 0 ? 1.0f / float(n) : 0.0f;
                 float* p = result.image.at(x, y);
                 p[kR] = sum.x * inv; p[kG] = sum.y * inv; p[kB] = sum.z * inv;
                 p[kNx] = nsum.x * inv; p[kNy] = nsum.y * inv; p[kNz] = nsum.z * inv;
                 p[kAlbedoR] = asum.x * inv; p[kAlbedoG] = asum.y * inv; p[kAlbedoB] = asum.z * inv;
                 p[kDepth] = dsum * inv;
-                p[kSamples] = float(s.spp);
+                p[kSamples] = float(taken);
+                p[kVariance] = n > 1 ? float(std::max(0.0, (s2 - s1 * s1 / n) / (n - 1)) / n) : 0.0f;
+                p[kCostNodes] = float(stats.nodes_visited - nodes0) / float(taken);
+                p[kCostTests] = float(stats.prim_tests - tests0) / float(taken);
+                p[kNaN] = float(bad);
             }
+        thread_nans.local() += nans;
         thread_samples.local() += samples;
         ++tiles_done;
         progress.tile_done(stats.total_rays() - rays_before);
@@ -130,6 +155,7 @@ RenderResult render(const Camera& camera, const Integrator& integrator,
     result.seconds = std::chrono::duration<double>(Clock::now() - start).count();
     for (const accel::TraceStats& st : thread_stats) result.stats += st;
     for (uint64_t n : thread_samples) result.samples += n;
+    for (uint64_t n : thread_nans) result.nan_samples += n;
     result.partial = tiles_done.load() < num_tiles;
     if (s.progress) {
         if (result.partial)

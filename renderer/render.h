@@ -25,20 +25,32 @@ struct RenderSettings {
     std::optional<Cell> cell;
     bool progress = true;   ///< print progress lines on stderr
     int tile = 32;
+    /// -a BATCH TOL: every BATCH samples, stop the pixel once 1.96 sigma / sqrt(n) <= TOL mu
+    /// (illuminance); spp is the cap. 0 = off.
+    int adaptive_batch = 0;
+    float adaptive_tol = 0.05f;
     /// Set from a signal handler to stop early; finished tiles are kept.
     const std::atomic<bool>* cancel = nullptr;
 };
 
 /// Channel layout of RenderResult::image.
-enum Channel : int { kR, kG, kB, kNx, kNy, kNz, kAlbedoR, kAlbedoG, kAlbedoB, kDepth, kSamples, kNumChannels };
+enum Channel : int {
+    kR, kG, kB, kNx, kNy, kNz, kAlbedoR, kAlbedoG, kAlbedoB, kDepth, kSamples,
+    kVariance,   ///< variance of the pixel mean's illuminance (sample variance / n)
+    kCostNodes,  ///< BVH nodes visited per camera sample, by the backend that did the work
+    kCostTests,  ///< primitive tests per camera sample
+    kNaN,        ///< samples dropped because they were NaN or infinite
+    kNumChannels
+};
 
 struct RenderResult {
-    /// R,G,B (mean radiance), N.{X,Y,Z}, albedo.{R,G,B}, Z (depth), samples.
+    /// See Channel: mean radiance, AOVs, sample count, variance, cost.
     Image image;
     accel::TraceStats stats;  ///< summed over threads
     double seconds = 0.0;
     uint64_t samples = 0;     ///< camera samples taken
     bool partial = false;     ///< stopped before every tile was done
+    uint64_t nan_samples = 0; ///< non-finite samples dropped (counted, never averaged)
 };
 
 RenderResult render(const Camera& camera, const Integrator& integrator,

@@ -29,7 +29,8 @@ struct Texture {
 };
 
 /// Lambertian diffuse or emissive; the only surfaces we model. An emissive material
-/// emits and does not reflect (albedo is ignored when emission is non-zero).
+/// emits and does not reflect (albedo is ignored when emission is non-zero), unless
+/// `emitter_reflects` is set (a surface that does both, e.g. a white-furnace enclosure).
 struct Material {
     std::string name;
     Vec3f albedo{0.8f, 0.8f, 0.8f};
@@ -39,6 +40,7 @@ struct Material {
     /// Non-empty when the file asked for another BSDF (mirror, glass, microfacet, ...)
     /// that we render as diffuse with `albedo`: names what was replaced.
     std::string replaced;
+    bool emitter_reflects = false;
 
     bool is_emissive() const {
         return emission.x > 0.0f || emission.y > 0.0f || emission.z > 0.0f;

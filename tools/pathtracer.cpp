@@ -2,7 +2,9 @@
 #include <CLI/CLI.hpp>
 #include <fmt/format.h>
 
+#include <algorithm>
 #include <atomic>
+#include <cmath>
 #include <chrono>
 #include <csignal>
 #include <cstdio>
@@ -13,6 +15,7 @@
 #include "renderer/camera.h"
 #include "renderer/image.h"
 #include "renderer/integrator.h"
+#include "renderer/lights.h"
 #include "renderer/render.h"
 #include "renderer/scene_geometry.h"
 #include "scenes/load.h"
@@ -56,7 +59,7 @@ int main(int argc, char** argv) {
     int accumulate = 1;
     std::vector<float> cam_pos, cam_target, cam_up;
     float fov = 0;
-    bool quiet = false;
+    bool quiet = false, cost = false;
     std::string ocio_config;
 
     app.add_option("scene", scene_path, "Scene file (.dae, .gltf, .glb)")->required();
@@ -99,6 +102,9 @@ int main(int argc, char** argv) {
         ->check(CLI::IsMember({"direct", "indirect"}));
     app.add_option("--ocio-config", ocio_config, "OpenColorIO config for PNG/JPEG output (default: ours)")
         ->check(CLI::ExistingFile);
+    app.add_flag("--cost", cost,
+                 "Also write heat maps of BVH nodes visited and primitive tests per pixel "
+                 "(NAME_nodes.png, NAME_tests.png), from the backend that did the work");
     app.add_flag("-q,--quiet", quiet, "No progress lines");
 
     try {
@@ -123,8 +129,13 @@ int main(int argc, char** argv) {
                              "least 1x1", cell[0], cell[1], cell[2], cell[3], rs.width, rs.height));
         rs.cell = renderer::Cell{cell[0], cell[1], cell[2], cell[3]};
     }
-    if (!adaptive.empty())
-        fail("-a (adaptive sampling) is not available yet in this build");
+    if (!adaptive.empty()) {
+        if (adaptive[0] < 1 || adaptive[0] != std::floor(adaptive[0]) || !(adaptive[1] > 0))
+            fail(fmt::format("-a {} {}: BATCH must be a whole number >= 1 and TOL > 0", adaptive[0],
+                             adaptive[1]));
+        rs.adaptive_batch = int(adaptive[0]);
+        rs.adaptive_tol = adaptive[1];
+    }
     is.accumulate = accumulate == 1;
     ao.split = bvh == "midpoint" ? accel::BvhSplit::Midpoint : accel::BvhSplit::Sah;
     ao.triangle = tri == "watertight" ? accel::TriangleTest::Watertight : accel::TriangleTest::Fast;
@@ -171,10 +182,17 @@ int main(int argc, char** argv) {
 
     // Accelerator and integrator.
     renderer::SceneGeometry geometry(scene);
+    std::unique_ptr<renderer::LightSet> lights;
+    if (is.name != "normals") {
+        std::vector<std::string> notes;
+        lights = std::make_unique<renderer::LightSet>(scene, notes);
+        std::fprintf(stderr, "%s\n", lights->summary().c_str());
+        for (const std::string& note : notes) std::fprintf(stderr, "[PathTracer] Note: %s\n", note.c_str());
+    }
     std::unique_ptr<accel::Accelerator> accel;
     std::unique_ptr<renderer::Integrator> integrator;
     try {
-        integrator = renderer::make_integrator(is, scene, geometry);
+        integrator = renderer::make_integrator(is, scene, geometry, lights.get());
         accel = renderer::build_accelerator(backend, geometry, ao);
     } catch (const accel::AccelError& e) {
         fail(e.what());
@@ -199,6 +217,9 @@ int main(int argc, char** argv) {
     std::printf("[PathTracer] Render time %.4f s, %.3f Mrays/s, %llu camera samples\n", result.seconds,
                 double(result.stats.total_rays()) / std::max(result.seconds, 1e-9) / 1e6,
                 (unsigned long long)result.samples);
+    if (result.nan_samples)
+        std::printf("[PathTracer] Dropped %llu NaN/Inf samples (counted in the EXR 'nan' channel)\n",
+                    (unsigned long long)result.nan_samples);
 
     renderer::WriteOptions wo;
     wo.encoding = integrator->display_referred() ? renderer::Encoding::Display : renderer::Encoding::SceneLinear;
@@ -213,6 +234,37 @@ int main(int argc, char** argv) {
     }
     std::fprintf(stderr, "Done!\n");
     std::printf("Wrote %s%s\n", output.c_str(), result.partial ? " (partial: interrupted)" : "");
-    (void)sibling;
+
+    // Side images: the sample-rate heat map (course name NAME_rate.png) and the cost maps.
+    auto channel = [&](int c) {
+        std::vector<float> v(size_t(rs.width) * rs.height);
+        for (size_t i = 0; i < v.size(); ++i) v[i] = result.image.pixels[i * result.image.nchannels() + c];
+        return v;
+    };
+    auto write_heat = [&](int c, const std::string& suffix) {
+        std::vector<float> v = channel(c);
+        const float hi = *std::max_element(v.begin(), v.end());
+        const std::string path = sibling(output, suffix, ".png");
+        renderer::WriteOptions ho;
+        ho.encoding = renderer::Encoding::Display;
+        try {
+            renderer::write_image(path, renderer::heat_map(v, rs.width, rs.height, 0.0f, hi), ho);
+        } catch (const std::exception& e) {
+            fail(e.what());
+        }
+        std::printf("Wrote %s (blue 0 .. red %g)\n", path.c_str(), double(hi));
+    };
+    if (rs.adaptive_batch > 0) {
+        write_heat(renderer::kSamples, "_rate");
+        std::vector<float> v = channel(renderer::kSamples);
+        double total = 0;
+        for (float x : v) total += x;
+        std::printf("[PathTracer] Adaptive sampling: %.2f samples per pixel on average (cap %d)\n",
+                    total / double(v.size()), rs.spp);
+    }
+    if (cost) {
+        write_heat(renderer::kCostNodes, "_nodes");
+        write_heat(renderer::kCostTests, "_tests");
+    }
     return result.partial ? 130 : 0;
 }

@@ -1,0 +1,242 @@
+#include "renderer/lights.h"
+
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <cmath>
+
+#include "renderer/sampling.h"
+
+namespace renderer {
+
+namespace {
+
+/// Does the rectangle light `l` describe the same emitter as emissive mesh `m`?
+bool duplicates_mesh(const scenes::Light& l, const scenes::Mesh& m, const scenes::Material& mat) {
+    const Vec3f n = accel::cross(l.edge_u, l.edge_v);
+    const float rect_area = accel::length(n);
+    if (!(rect_area > 0)) return false;
+    const Vec3f un = n / rect_area;
+    float mesh_area = 0;
+    accel::Bounds3f b;
+    for (uint32_t t = 0; t < m.num_triangles(); ++t) {
+        const Vec3f a = m.positions[m.indices[3 * t]], c = m.positions[m.indices[3 * t + 1]],
+                    d = m.positions[m.indices[3 * t + 2]];
+        mesh_area += 0.5f * accel::length(accel::cross(c - a, d - a));
+        b.extend(a); b.extend(c); b.extend(d);
+        // Every vertex within 1 % of the rectangle's size of its plane.
+        for (const Vec3f& v : {a, c, d})
+            if (std::abs(accel::dot(v - l.position, un)) > 0.01f * std::sqrt(rect_area)) return false;
+    }
+    if (!(mesh_area > 0) || std::abs(mesh_area - rect_area) > 0.05f * rect_area) return false;
+    if (accel::length(b.center() - l.position) > 0.25f * std::sqrt(rect_area)) return false;
+    const Vec3f d = mat.emission - l.radiance;
+    return accel::max_component(accel::vabs(d)) <= 0.01f * accel::max_component(l.radiance);
+}
+
+Vec3f radiance_of(const scenes::Material& m) { return m.emission; }
+
+}  // namespace
+
+LightSet::LightSet(const scenes::Scene& scene, std::vector<std::string>& notes) {
+    // Emissive meshes: one light each, sampled by area over its triangles.
+    std::vector<bool> mesh_is_light(scene.meshes.size(), false);
+    for (size_t mi = 0; mi < scene.meshes.size(); ++mi) {
+        const scenes::Mesh& m = scene.meshes[mi];
+        if (m.material >= scene.materials.size() || !scene.materials[m.material].is_emissive()) continue;
+        Light l{};
+        l.kind = Kind::Mesh;
+        l.radiance = radiance_of(scene.materials[m.material]);
+        l.first_tri = uint32_t(tris_.size());
+        float total = 0;
+        for (uint32_t t = 0; t < m.num_triangles(); ++t) {
+            const Vec3f a = m.positions[m.indices[3 * t]], b = m.positions[m.indices[3 * t + 1]],
+                        c = m.positions[m.indices[3 * t + 2]];
+            const float area = 0.5f * accel::length(accel::cross(b - a, c - a));
+            if (!(area > 0) || !std::isfinite(area)) continue;
+            // Emits on the side its shading normals face (file normals, else winding),
+            // the same rule camera and bounce rays see (renderer/integrators/path.cpp).
+            Vec3f ng = accel::normalize(accel::cross(b - a, c - a));
+            if (!m.normals.empty()) {
+                const Vec3f avg = m.normals[m.indices[3 * t]] + m.normals[m.indices[3 * t + 1]] +
+                                  m.normals[m.indices[3 * t + 2]];
+                if (accel::dot(avg, ng) < 0) ng = -ng;
+            }
+            tris_.push_back({a, b - a, c - a, ng});
+            total += area;
+            cdf_.push_back(total);
+        }
+        l.num_tris = uint32_t(tris_.size()) - l.first_tri;
+        if (l.num_tris == 0) continue;
+        for (uint32_t i = 0; i < l.num_tris; ++i) cdf_[l.first_tri + i] /= total;
+        l.area = total;
+        lights_.push_back(l);
+        mesh_is_light[mi] = true;
+    }
+    for (const scenes::Sphere& s : scene.spheres) {
+        if (s.material >= scene.materials.size() || !scene.materials[s.material].is_emissive()) continue;
+        Light l{};
+        l.kind = Kind::Sphere;
+        l.radiance = radiance_of(scene.materials[s.material]);
+        l.position = s.center;
+        l.radius = s.radius;
+        l.area = 4.0f * accel::kPi * s.radius * s.radius;
+        lights_.push_back(l);
+    }
+    for (const scenes::Light& sl : scene.lights) {
+        Light l{};
+        l.radiance = sl.radiance;
+        l.position = sl.position;
+        switch (sl.type) {
+            case scenes::LightType::Area: {
+                bool dup = false;
+                for (size_t mi = 0; mi < scene.meshes.size() && !dup; ++mi)
+                    if (mesh_is_light[mi] &&
+                        duplicates_mesh(sl, scene.meshes[mi], scene.materials[scene.meshes[mi].material])) {
+                        notes.push_back(fmt::format(
+                            "area light '{}' describes the same emitter as emissive mesh '{}': "
+                            "counted once, as the mesh (hit by camera and bounce rays, sampled by area)",
+                            sl.name, scene.meshes[mi].name));
+                        dup = true;
+                    }
+                if (dup) continue;
+                l.kind = Kind::Rect;
+                l.edge_u = sl.edge_u;
+                l.edge_v = sl.edge_v;
+                Vec3f n = accel::cross(sl.edge_u, sl.edge_v);
+                l.area = accel::length(n);
+                if (!(l.area > 0)) continue;
+                n = n / l.area;
+                // Emits toward the file's facing direction.
+                if (accel::dot(n, sl.direction) < 0) n = -n;
+                l.normal = n;
+                notes.push_back(fmt::format("area light '{}' has no emissive geometry: it is sampled for "
+                                            "direct light but invisible to camera and bounce rays (-H)",
+                                            sl.name));
+                break;
+            }
+            case scenes::LightType::Point: l.kind = Kind::Point; break;
+            case scenes::LightType::Spot:
+                l.kind = Kind::Spot;
+                l.normal = accel::normalize(sl.direction);
+                l.cos_inner = sl.spot_cos_inner;
+                l.cos_outer = sl.spot_cos_outer;
+                break;
+            case scenes::LightType::Directional:
+                l.kind = Kind::Directional;
+                l.normal = accel::normalize(sl.direction);  // direction light travels
+                break;
+            case scenes::LightType::Environment:
+                if (env_ >= 0) {
+                    lights_[size_t(env_)].radiance += sl.radiance;
+                    continue;
+                }
+                l.kind = Kind::Environment;
+                env_ = int(lights_.size());
+                break;
+        }
+        lights_.push_back(l);
+    }
+    if (lights_.empty()) {
+        Light l{};
+        l.kind = Kind::Environment;
+        l.radiance = Vec3f(1.0f);
+        env_ = int(lights_.size());
+        lights_.push_back(l);
+        notes.push_back("the scene has no lights: using a constant white environment (radiance 1)");
+    }
+}
+
+bool LightSet::sample(size_t i, const Vec3f& p, const Vec3f& n, Rng& rng, LightSample& out) const {
+    const Light& l = lights_[i];
+    out.delta = false;
+    auto finite_area = [&](const Vec3f& q, const Vec3f& nl, float area_pdf, bool two_sided) {
+        const Vec3f d = q - p;
+        const float dist2 = accel::dot(d, d);
+        if (!(dist2 > 0)) return false;
+        const float dist = std::sqrt(dist2);
+        const Vec3f wi = d / dist;
+        // The solid-angle pdf needs the cosine with the UNIT direction (course trap).
+        float cos_l = -accel::dot(nl, wi);
+        if (two_sided) cos_l = std::abs(cos_l);
+        if (!(cos_l > 0)) return false;
+        out.radiance = l.radiance;
+        out.target = q;
+        out.wi = wi;
+        out.distance = dist;
+        out.pdf = area_pdf * dist2 / cos_l;
+        return std::isfinite(out.pdf) && out.pdf > 0;
+    };
+    switch (l.kind) {
+        case Kind::Rect: {
+            const Vec3f q = l.position + l.edge_u * (rng.next_float() - 0.5f) + l.edge_v * (rng.next_float() - 0.5f);
+            return finite_area(q, l.normal, 1.0f / l.area, false);
+        }
+        case Kind::Mesh: {
+            const float u = rng.next_float();
+            const float* begin = cdf_.data() + l.first_tri;
+            const size_t k = std::min<size_t>(size_t(std::upper_bound(begin, begin + l.num_tris, u) - begin),
+                                              l.num_tris - 1);
+            const Tri& t = tris_[l.first_tri + k];
+            float a = rng.next_float(), b = rng.next_float();
+            if (a + b > 1.0f) { a = 1.0f - a; b = 1.0f - b; }
+            const Vec3f q = t.v0 + t.e1 * a + t.e2 * b;
+            return finite_area(q, t.n, 1.0f / l.area, false);
+        }
+        case Kind::Sphere: {
+            const Vec3f nl = uniform_sphere(rng.next_float(), rng.next_float());
+            // Two-sided like meshes: a camera inside an emissive sphere sees it too.
+            return finite_area(l.position + nl * l.radius, nl, 1.0f / l.area, true);
+        }
+        case Kind::Point:
+        case Kind::Spot: {
+            const Vec3f d = l.position - p;
+            const float dist2 = accel::dot(d, d);
+            if (!(dist2 > 0)) return false;
+            out.distance = std::sqrt(dist2);
+            out.wi = d / out.distance;
+            out.target = l.position;
+            // Intensity I (W/sr) gives irradiance I/r^2; as a "radiance" with pdf 1.
+            float falloff = 1.0f;
+            if (l.kind == Kind::Spot) {
+                const float c = accel::dot(-out.wi, l.normal);
+                if (c <= l.cos_outer) return false;
+                if (c < l.cos_inner) {
+                    const float t = (c - l.cos_outer) / std::max(l.cos_inner - l.cos_outer, 1e-6f);
+                    falloff = t * t * (3.0f - 2.0f * t);
+                }
+            }
+            out.radiance = l.radiance * (falloff / dist2);
+            out.pdf = 1.0f;
+            out.delta = true;
+            return true;
+        }
+        case Kind::Directional:
+            out.wi = -l.normal;
+            out.distance = accel::kInfinity;
+            out.radiance = l.radiance;
+            out.pdf = 1.0f;
+            out.delta = true;
+            return true;
+        case Kind::Environment: {
+            const Vec3f local = cosine_hemisphere(rng.next_float(), rng.next_float());
+            out.wi = to_world(local, n);
+            out.distance = accel::kInfinity;
+            out.radiance = l.radiance;
+            out.pdf = local.z * accel::kInvPi;
+            return out.pdf > 0;
+        }
+    }
+    return false;
+}
+
+std::string LightSet::summary() const {
+    size_t counts[7] = {};
+    for (const Light& l : lights_) ++counts[size_t(l.kind)];
+    return fmt::format("[PathTracer] Lights sampled: {} area rectangles, {} emissive meshes ({} triangles), "
+                       "{} emissive spheres, {} point, {} spot, {} directional, {} environment",
+                       counts[0], counts[1], tris_.size(), counts[2], counts[3], counts[4], counts[5],
+                       counts[6]);
+}
+
+}  // namespace renderer
