@@ -719,6 +719,18 @@ private:
                         count = n.count[i];
                         continue;
                     }
+                    if constexpr (AnyHit) {
+                        // Any hit ends the query, so order buys little: push the rest
+                        // unsorted and go on with the first.
+                        ref = n.child[i];
+                        count = n.count[i];
+                        do {
+                            i = __builtin_ctz(mask);
+                            mask &= mask - 1;
+                            stack[sp++] = {n.child[i], n.count[i], dist[i]};
+                        } while (mask);
+                        continue;
+                    }
                     // Several hits: push them farthest first so the nearest is visited
                     // next and the others are likely culled by the shrunk t on pop.
                     // Insertion sort into the stack top (at most 4 items).
