@@ -2,6 +2,7 @@
 #include "accel/embree/embree.h"
 
 #include <embree3/rtcore.h>
+#include <tbb/task_arena.h>
 
 #include <atomic>
 #include <chrono>
@@ -158,9 +159,11 @@ public:
           state_(std::make_unique<DeviceState>()) {
         const auto start = std::chrono::steady_clock::now();
 
-        std::string config;
-        if (options.build_threads > 0) config = "threads=" + std::to_string(options.build_threads);
-        if (!extra_config.empty()) config += (config.empty() ? "" : ",") + extra_config;
+        // build_threads is honoured by committing inside a task arena, not by Embree's
+        // "threads=N": with TBB that installs a process-wide tbb::global_control
+        // (max_allowed_parallelism = N) for the device's lifetime, which would also cap
+        // the renderer's own arena for as long as this accelerator lives.
+        const std::string config = extra_config;
         device_ = device_holder_.h = rtcNewDevice(config.c_str());
         if (!device_) {
             // No device, no callback: the code is all Embree 3 can tell us.
@@ -200,7 +203,12 @@ public:
             }
         }
 
-        rtcCommitScene(scene_);
+        if (options.build_threads > 0) {
+            tbb::task_arena arena(options.build_threads);
+            arena.execute([&] { rtcCommitScene(scene_); });
+        } else {
+            rtcCommitScene(scene_);
+        }
         check("rtcCommitScene");
 
         if (info_.primitives > 0) {

@@ -12,6 +12,8 @@
 #include <thread>
 #include <vector>
 
+#include <tbb/global_control.h>
+
 #include "accel/accelerator.h"
 #include "accel/embree/embree.h"
 #include "renderer/scene_geometry.h"
@@ -342,13 +344,46 @@ TEST(EmbreeAgreement, QualitiesAndRobustBuildAndAgree) {
             }
 }
 
-TEST(EmbreeAgreement, BuildThreadsOption) {
+// build_threads must limit the build only: Embree's own "threads=N" would install a
+// process-wide TBB limit for the accelerator's lifetime and throttle the renderer.
+TEST(EmbreeAgreement, BuildThreadsOptionHasNoProcessWideEffect) {
+    const auto parallelism = [] {
+        return tbb::global_control::active_value(tbb::global_control::max_allowed_parallelism);
+    };
+    const size_t before = parallelism();
     Scenario s = make_scenario("soup");
-    AccelOptions o = options(false);
-    o.build_threads = 1;
-    auto e = make_embree(s.views, o);
-    auto n = naive(s.views, o);
-    expect_agreement(*e, *n, random_rays(3000, 8), "threads=1");
+    for (bool count : {false, true}) {
+        AccelOptions o = options(count);
+        o.build_threads = 1;
+        auto e = make_embree(s.views, o);
+        EXPECT_EQ(parallelism(), before) << "while the accelerator lives";
+        auto n = naive(s.views, o);
+        expect_agreement(*e, *n, random_rays(3000, 8), count ? "threads=1/count" : "threads=1",
+                         count ? Tolerance::exact() : Tolerance{});
+    }
+}
+
+// Informational: build time and memory per quality on a 90k-triangle scene. No
+// thresholds (timings depend on the machine); asserts only what must hold everywhere.
+TEST(EmbreeInfo, BuildPerQuality) {
+    TestMesh soup = triangle_soup(50000, 31);
+    TestMesh ball = tessellated_sphere(100, 200, Vec3f(0.5f), 1.0f);
+    std::vector<GeometryView> views{soup.view(), ball.view()};
+    for (bool count : {false, true})
+        for (EmbreeQuality q : {EmbreeQuality::Low, EmbreeQuality::Medium, EmbreeQuality::High}) {
+            AccelOptions o = options(count);
+            o.embree_quality = q;
+            auto e = make_embree(views, o);
+            EXPECT_EQ(e->info().primitives, 50000u + 39600u);
+            EXPECT_GT(e->info().bytes, 0u);
+            TraceStats st;
+            Hit h;
+            for (const Ray& r : random_rays(2000, 37)) e->intersect(r, h, st);
+            std::printf("[%s] %llu prims: build %.4f s, %.2f MiB%s\n", e->info().backend.c_str(),
+                        (unsigned long long)e->info().primitives, e->info().build_seconds,
+                        double(e->info().bytes) / (1024.0 * 1024.0),
+                        count ? (", " + std::to_string(st.tests_per_ray()) + " prim tests/ray").c_str() : "");
+        }
 }
 
 TEST(EmbreeRays, TMinTMaxAndInsideStarts) {
