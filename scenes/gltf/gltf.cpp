@@ -28,8 +28,9 @@ using gltf_detail::decode_srgb_texture;
 /// small file describe a huge scene; past this it is treated as hostile, not as a scene.
 constexpr uint64_t kMaxSceneElements = uint64_t(1) << 28;
 /// Accessors without a bufferView (all zeros, possibly patched by sparse) are not
-/// bounded by any buffer, so their count needs its own limit.
-constexpr uint64_t kMaxUnbackedCount = uint64_t(1) << 24;
+/// bounded by any buffer, so their count needs its own limit; real files use them only
+/// for small sparse patches.
+constexpr uint64_t kMaxUnbackedCount = uint64_t(1) << 20;
 /// glTF needs about 8 levels; tinygltf converts extras/extensions recursively, so deeply
 /// nested JSON would overflow the stack inside tinygltf.
 constexpr int kMaxJsonDepth = 64;
@@ -370,6 +371,7 @@ private:
     std::set<std::string> ignored_material_features_;
     std::vector<std::string> range_ignored_;
     uint64_t elements_ = 0;
+    uint64_t decoded_elements_ = 0;
     int cameras_seen_ = 0;
 };
 
@@ -878,6 +880,10 @@ const DecodedPrimitive& Loader::decode_primitive(int mi, int pi) {
     const size_t nv = pos.size() / 3;
     if (nv >= size_t(std::numeric_limits<uint32_t>::max()))
         fail(pdesc + ": too many vertices");
+    // Decoded primitives are cached, so they count against the budget on their own,
+    // before any instance does.
+    decoded_elements_ += nv;
+    if (decoded_elements_ > kMaxSceneElements) fail(pdesc + ": scene too large");
     d.positions.resize(nv);
     for (size_t i = 0; i < nv; ++i) d.positions[i] = {pos[i * 3], pos[i * 3 + 1], pos[i * 3 + 2]};
 
@@ -919,6 +925,8 @@ const DecodedPrimitive& Loader::decode_primitive(int mi, int pi) {
         for (size_t i = 0; i < nv; ++i) idx[i] = uint32_t(i);
     }
     const size_t n = idx.size();
+    decoded_elements_ += 3 * n;  // strips and fans triple their index count
+    if (decoded_elements_ > kMaxSceneElements) fail(pdesc + ": scene too large");
     if (mode == TINYGLTF_MODE_TRIANGLES) {
         if (n % 3 != 0)
             note(pdesc + ": " + std::to_string(n) + " vertices is not a multiple of 3; last " +
