@@ -183,25 +183,29 @@ public:
         // set of hittable primitives agree with naive and the custom BVH.
         std::vector<PrimRef> refs = collect_primitives(geometry_, info_.dropped);
         info_.primitives = refs.size();
-        std::vector<std::vector<uint32_t>> kept(geometry_.size());
-        for (const PrimRef& r : refs) kept[r.geom].push_back(r.prim);
-        std::vector<PrimRef>().swap(refs);
 
-        user_.resize(geometry_.size());
+        user_.resize(geometry_.size());  // never resized again: callbacks point into it
         prim_map_.resize(geometry_.size());
         indices_.resize(geometry_.size());
+        size_t begin = 0;  // refs come grouped by view, in primitive order
         for (uint32_t gi = 0; gi < geometry_.size(); ++gi) {
             const GeometryView& g = geometry_[gi];
-            std::vector<uint32_t>& keep = kept[gi];
-            if (keep.empty()) continue;  // nothing hittable: no Embree geometry at all
-            const bool all_kept = keep.size() == g.num_prims;
-            if (counting_ || g.type == GeometryType::Spheres) {
-                if (!all_kept) prim_map_[gi] = std::move(keep);
-                add_user_geometry(gi, uint32_t(all_kept ? g.num_prims : prim_map_[gi].size()), options);
-            } else {
-                add_triangles(gi, keep, options);
+            size_t end = begin;
+            while (end < refs.size() && refs[end].geom == gi) ++end;
+            const size_t kept = end - begin;
+            if (kept == 0) continue;  // nothing hittable: no Embree geometry at all
+            // A list of kept primitives only when some were dropped: identity otherwise.
+            if (kept != g.num_prims) {
+                prim_map_[gi].reserve(kept);
+                for (size_t i = begin; i < end; ++i) prim_map_[gi].push_back(refs[i].prim);
             }
+            begin = end;
+            if (counting_ || g.type == GeometryType::Spheres)
+                add_user_geometry(gi, uint32_t(kept), options);
+            else
+                add_triangles(gi, options);
         }
+        std::vector<PrimRef>().swap(refs);
 
         if (options.build_threads > 0) {
             tbb::task_arena arena(options.build_threads);
@@ -326,7 +330,7 @@ private:
         check(what);
     }
 
-    void add_triangles(uint32_t gi, const std::vector<uint32_t>& keep, const AccelOptions& options) {
+    void add_triangles(uint32_t gi, const AccelOptions& options) {
         const GeometryView& g = geometry_[gi];
         RTCGeometry geom = rtcNewGeometry(device_, RTC_GEOMETRY_TYPE_TRIANGLE);
         if (!geom) check("rtcNewGeometry(triangle)");
@@ -336,20 +340,23 @@ private:
         bool in_range = true;
         const uint64_t n_idx = 3ull * g.num_prims;
         for (uint64_t i = 0; i < n_idx && in_range; ++i) in_range = g.indices[i] < g.num_vertices;
+        std::vector<uint32_t>& map = prim_map_[gi];
         if (in_range) {
-            // Degenerate triangles stay in: Embree never reports a hit on zero area, and
-            // sharing the caller's buffer is worth more than skipping them.
+            // Degenerate triangles stay in: Embree never reports a hit on zero area (nor
+            // builds non-finite ones), and sharing the caller's buffer is worth more.
+            map.clear();
+            map.shrink_to_fit();
             rtcSetSharedGeometryBuffer(geom, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3, g.indices,
                                        0, 3 * sizeof(uint32_t), g.num_prims);
         } else {
             // An out-of-range index is undefined behaviour for Embree: give it a copy of
-            // just the primitives collect_primitives kept, and map its primIDs back.
+            // just the primitives collect_primitives kept; `map` takes its primIDs back.
             std::vector<uint32_t>& ix = indices_[gi];
-            ix.reserve(3 * keep.size());
-            for (uint32_t p : keep) ix.insert(ix.end(), g.indices + 3 * size_t(p), g.indices + 3 * size_t(p) + 3);
-            prim_map_[gi] = keep;
+            ix.reserve(3 * map.size());
+            for (uint32_t p : map)
+                ix.insert(ix.end(), g.indices + 3 * size_t(p), g.indices + 3 * size_t(p) + 3);
             rtcSetSharedGeometryBuffer(geom, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3, ix.data(),
-                                       0, 3 * sizeof(uint32_t), keep.size());
+                                       0, 3 * sizeof(uint32_t), map.size());
         }
         attach(geom, gi, "triangle geometry");
     }

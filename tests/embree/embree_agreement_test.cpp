@@ -456,6 +456,25 @@ TEST(EmbreeRays, MissLeavesHitUntouched) {
     EXPECT_EQ(h.prim_id, 77u);
 }
 
+// Normal mode cannot see Embree's primitive tests, so it must not report any (a zero
+// with counts_prims == false, rather than a partial count of just the spheres).
+TEST(EmbreeCounting, NormalModeReportsNoPrimTests) {
+    Scenario s = make_scenario("mixed");
+    auto e = make_embree(s.views, options(false));
+    TraceStats st;
+    Hit h;
+    uint64_t hits = 0;
+    for (const Ray& r : random_rays(1000, 41)) {
+        hits += e->intersect(r, h, st);
+        e->occluded(r, st);
+    }
+    EXPECT_GT(hits, 0u);
+    EXPECT_EQ(st.rays, 1000u);
+    EXPECT_EQ(st.shadow_rays, 1000u);
+    EXPECT_EQ(st.prim_tests, 0u);
+    EXPECT_EQ(st.nodes_visited, 0u);
+}
+
 TEST(EmbreeEdgeCases, EmptyGeometry) {
     for (bool count : {false, true}) {
         TestMesh empty_mesh;
