@@ -5,6 +5,7 @@
 #include "scenes/gltf/gltf.h"
 
 #include <algorithm>
+#include <cctype>
 #include <cmath>
 #include <cstring>
 #include <filesystem>
@@ -47,10 +48,20 @@ const std::set<std::string>& supported_extensions() {
 
 std::string squote(const std::string& s) { return "'" + s + "'"; }
 
+/// tinygltf messages for a user: one line, embedded base64 payloads elided (tinygltf
+/// quotes whole data URIs, which can be megabytes), bounded length.
 std::string one_line(std::string s) {
+    for (size_t at = s.find("base64,"); at != std::string::npos; at = s.find("base64,", at + 7)) {
+        size_t begin = at + 7, end = begin;
+        while (end < s.size() && (std::isalnum(static_cast<unsigned char>(s[end])) || s[end] == '+' ||
+                                  s[end] == '/' || s[end] == '='))
+            ++end;
+        if (end - begin > 16) s.replace(begin + 16, end - begin - 16, "...");
+    }
     while (!s.empty() && (s.back() == '\n' || s.back() == '\r' || s.back() == ' ')) s.pop_back();
     for (char& c : s)
         if (c == '\n' || c == '\r') c = ';';
+    if (s.size() > 400) s = s.substr(0, 400) + "...";
     return s;
 }
 
@@ -1084,7 +1095,7 @@ Scene load_impl(const unsigned char* data, size_t size, const std::string& name,
     for (std::string line; std::getline(ws, line);)
         if (!line.empty() && line.find("image[") == std::string::npos &&
             line.find("File not found") == std::string::npos)
-            scene.notes.push_back("tinygltf: " + line);
+            scene.notes.push_back("tinygltf: " + one_line(line));
     Loader(name, model, scene).run();
     return scene;
 }

@@ -514,6 +514,20 @@ TEST(GltfErrors, MissingBin) {
     }
 }
 
+TEST(GltfErrors, BufferLengthMismatchNamesBufferWithoutDumpingData) {
+    std::vector<uint8_t> payload(30000, 'x');
+    std::string j = "{\"asset\":{\"version\":\"2.0\"},\"buffers\":[{\"byteLength\":10,\"uri\":"
+                    "\"data:application/octet-stream;base64," + base64(payload) + "\"}]}";
+    try {
+        load(j, "big.gltf");
+        ADD_FAILURE() << "byteLength mismatch must fail";
+    } catch (const SceneError& e) {
+        std::string m = e.what();
+        EXPECT_EQ(m.rfind("big.gltf: buffer 0", 0), 0u) << m.substr(0, 200);
+        EXPECT_LT(m.size(), 600u) << "the data URI must be elided";
+    }
+}
+
 TEST(GltfErrors, DanglingReferences) {
     Doc d = triangle_doc();
     expect_error(d.json(kTriMesh + kScene0 + ",\"nodes\":[{\"mesh\":5}]"), {"node 0", "mesh 5 does not exist"});
