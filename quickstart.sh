@@ -43,7 +43,7 @@ case "${1:-}" in
     install_missing
     build
     mkdir -p out
-    "$BUILD_DIR"/tools/pathtracer --integrator=normals -r 480 360 -f out/cornell.png scenes/cornell.dae
+    "$BUILD_DIR"/tools/pathtracer -r 480 360 -s 64 -l 4 -m 5 -f out/cornell.png scenes/cornell.dae
     echo "quickstart: rendered scenes/cornell.dae to $(pwd)/out/cornell.png"
     ;;
   test)
