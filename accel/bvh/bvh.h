@@ -28,7 +28,7 @@ struct BvhReport {
     bool leaf_size_ok = true;        ///< no leaf above the limit, no empty leaf
     bool gathered_ok = true;         ///< pre-gathered leaf vertices equal the scene's
     bool siblings_adjacent = true;   ///< children of a node are consecutive and after it
-    /// The 4-wide tree traversal actually uses (collapsed from the binary one) covers
+    /// The 8-wide tree traversal actually uses (collapsed from the binary one) covers
     /// every primitive once, with nested, containing boxes.
     bool wide_ok = true;
     std::vector<std::string> errors; ///< first few violations, human readable

@@ -613,7 +613,7 @@ TEST(BvhStats, CountsFollowTheDocumentedRules) {
     EXPECT_EQ(s.rays, 1u);
     EXPECT_EQ(s.nodes_visited, 1u);
     EXPECT_EQ(s.prim_tests, 0u);
-    // A hit: the root box, then at least the children of the top 4-wide node (2..4).
+    // A hit: the root box, then at least the children of the top wide node (2..8).
     s = {};
     EXPECT_TRUE(bvh->occluded(Ray{{1.5f, 2.5f, 1}, {0, 0, -1}}, s));
     EXPECT_EQ(s.shadow_rays, 1u);
