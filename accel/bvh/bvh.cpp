@@ -584,7 +584,6 @@ void BvhBase::build(std::span<const GeometryView> geometry, const AccelOptions& 
     });
 
     if (!nodes_.empty()) {
-        wide_.reserve(nodes_.size() / 2 + 1);
         if (nodes_[0].is_leaf()) {  // a lone leaf still gets a WideNode around it
             wide_.emplace_back();
             WideNode& w = wide_[0];
@@ -597,6 +596,7 @@ void BvhBase::build(std::span<const GeometryView> geometry, const AccelOptions& 
             }
         } else {
             collapse(0);
+            wide_.shrink_to_fit();  // growth left up to 2x slack (and 2 MiB rounding)
         }
     }
 
