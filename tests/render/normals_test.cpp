@@ -19,12 +19,19 @@ struct NormalStats {
     double rgb_stddev = 0;       // spread of the picture's values
 };
 
-NormalStats render_normals(const std::string& path, const std::string& backend) {
+/// Renders at 160x120 with the course's field of view of a frame_w x frame_h window.
+NormalStats render_normals(const std::string& path, const std::string& backend, int frame_w,
+                           int frame_h) {
     scenes::Scene scene = scenes::load_scene(path);
     renderer::SceneGeometry geometry(scene);
     auto accel = renderer::build_accelerator(backend, geometry, {}, false);
     const int w = 160, h = 120;
-    auto cam = renderer::make_camera(scene, renderer::CameraMode::Auto, w, h);
+    // A plain 160x120 course render is only the central 160x120 pixels of the 800x600
+    // view; take the field of view of the frame the course users look at instead.
+    renderer::CameraOverrides ov;
+    ov.hfov_deg =
+        renderer::make_camera(scene, renderer::CameraMode::Auto, frame_w, frame_h).camera.hfov_deg();
+    auto cam = renderer::make_camera(scene, renderer::CameraMode::Auto, w, h, ov);
     renderer::NormalsIntegrator integrator(scene, geometry);
     renderer::RenderSettings rs;
     rs.width = w;
@@ -63,7 +70,7 @@ std::string shared(const std::string& rel) { return std::string(PT_SHARED_SCENES
 }  // namespace
 
 TEST(NormalShading, DefaultScene) {
-    NormalStats s = render_normals(std::string(PT_SOURCE_DIR) + "/scenes/cornell.dae", "naive");
+    NormalStats s = render_normals(std::string(PT_SOURCE_DIR) + "/scenes/cornell.dae", "naive", 480, 360);
     EXPECT_GT(s.hit_fraction, 0.5);  // the open box fills most of the frame
     EXPECT_GT(s.facing_fraction, 0.99);
     EXPECT_GT(s.rgb_stddev, 0.05);
@@ -72,7 +79,7 @@ TEST(NormalShading, DefaultScene) {
 TEST(NormalShading, CBspheresLambertian) {
     if (!std::filesystem::exists(PT_SHARED_SCENES))
         GTEST_SKIP() << "shared scene corpus not found at " << PT_SHARED_SCENES;
-    NormalStats s = render_normals(shared("cs184/CBspheres_lambertian.dae"), "naive");
+    NormalStats s = render_normals(shared("cs184/CBspheres_lambertian.dae"), "naive", 480, 360);
     EXPECT_GT(s.hit_fraction, 0.5);
     // The box's file normals point inward, toward a camera looking into the box.
     EXPECT_GT(s.facing_fraction, 0.99);
@@ -82,7 +89,7 @@ TEST(NormalShading, CBspheresLambertian) {
 TEST(NormalShading, Cow) {
     if (!std::filesystem::exists(PT_SHARED_SCENES))
         GTEST_SKIP() << "shared scene corpus not found at " << PT_SHARED_SCENES;
-    NormalStats s = render_normals(shared("cs184/cow.dae"), "naive");
+    NormalStats s = render_normals(shared("cs184/cow.dae"), "naive", 800, 600);
     EXPECT_GT(s.hit_fraction, 0.05);
     EXPECT_LT(s.hit_fraction, 0.95);  // a single object against the background
     // Interpolated normals can turn slightly away at silhouettes; almost all must face us.

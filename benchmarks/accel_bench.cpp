@@ -1,0 +1,228 @@
+// accel_bench: build time, memory and Mrays/s of every backend on the same ray sets,
+// each row with its ratio to Embree measured side by side in the same run.
+#include <CLI/CLI.hpp>
+#include <fmt/format.h>
+#include <tbb/task_arena.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <sstream>
+#include <thread>
+
+#include "renderer/backend_spec.h"
+#include "renderer/camera.h"
+#include "renderer/integrators/normals.h"
+#include "renderer/raysets.h"
+#include "renderer/render.h"
+#include "renderer/scene_geometry.h"
+#include "renderer/xcheck.h"
+#include "scenes/load.h"
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+[[noreturn]] void fail(const std::string& m) {
+    std::fprintf(stderr, "accel_bench: error: %s\n", m.c_str());
+    std::exit(2);
+}
+
+struct Row {
+    std::string scene;
+    uint64_t triangles;
+    std::string backend, kind;
+    int threads;
+    double mrays, ratio = 0, tests_per_ray, nodes_per_ray, build_ms;
+    uint64_t bytes;
+    bool counts_prims, counts_nodes;
+};
+
+/// Median Mrays/s over `repeats` traces of `set` with `threads` threads.
+double measure(const accel::Accelerator& a, const renderer::RaySet& set, int threads, int repeats,
+               accel::TraceStats& stats) {
+    std::vector<double> rates;
+    tbb::task_arena arena(threads);
+    for (int r = 0; r < repeats; ++r) {
+        accel::TraceStats st;
+        const auto t0 = Clock::now();
+        arena.execute([&] { renderer::trace_set(a, set, st); });
+        const double s = std::chrono::duration<double>(Clock::now() - t0).count();
+        rates.push_back(double(set.rays.size()) / std::max(s, 1e-9) / 1e6);
+        if (r == 0) stats = st;
+    }
+    std::sort(rates.begin(), rates.end());
+    return rates[rates.size() / 2];
+}
+
+/// The course write-ups' comparison: cow at 800x600, 1 spp, normal shading, without and
+/// with a BVH, printed with the course's lines.
+void course_comparison(const std::string& path, int w, int h) {
+    scenes::Scene scene = scenes::load_scene(path);
+    renderer::SceneGeometry geometry(scene);
+    renderer::NormalsIntegrator integrator(scene, geometry);
+    auto cam = renderer::make_camera(scene, renderer::CameraMode::Auto, w, h);
+    for (const char* backend : {"naive", "custom"}) {
+        std::printf("[PathTracer] %s (%s)\n", backend == std::string("naive") ? "Without BVH" : "With BVH",
+                    backend);
+        std::fflush(stdout);
+        auto accel = renderer::build_accelerator(backend, geometry, {}, true);
+        renderer::RenderSettings rs;
+        rs.width = w;
+        rs.height = h;
+        rs.progress = false;
+        auto r = renderer::render(cam.camera, integrator, *accel, rs);
+        std::printf("[PathTracer] Rendering... 100%%! (%.4fs)\n", r.seconds);
+        std::printf("[PathTracer] BVH traced %llu rays.\n", (unsigned long long)r.stats.total_rays());
+        std::printf("[PathTracer] Averaged %.6f intersection tests per ray.\n", r.stats.tests_per_ray());
+    }
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+    CLI::App app{"Accelerator benchmark: every backend on the very same camera, shadow and diffuse rays."};
+    std::vector<std::string> scene_paths;
+    std::string csv_path, backends_arg, kinds_arg = "camera,shadow,diffuse";
+    size_t rays = 200000;
+    int repeats = 3;
+    bool quick = false, no_course = false;
+    std::vector<int> thread_counts;
+    const std::string shared = std::string(PT_SOURCE_DIR_BENCH) + "/../shared/scenes/cs184/";
+    app.add_option("--scene", scene_paths, "Scene file (repeatable; default: the shared cow, CBbunny, "
+                                           "maxplanck and the default scene)");
+    app.add_option("--csv", csv_path, "Also write the rows as CSV");
+    app.add_option("--backends", backends_arg,
+                   "Backends (default: naive up to 10k triangles, custom:midpoint, custom:sah, embree:high, "
+                   "embree:high:count)");
+    app.add_option("--kinds", kinds_arg, "Ray kinds (default camera,shadow,diffuse)");
+    app.add_option("--rays", rays, "Rays per kind (default 200000)");
+    app.add_option("--repeats", repeats, "Timed repeats; the median is reported (default 3)");
+    app.add_option("--threads", thread_counts, "Thread counts (default: 1 and all cores)");
+    app.add_flag("--quick", quick, "Smoke run: 5000 rays, 1 repeat, default scene only unless --scene");
+    app.add_flag("--no-course", no_course, "Skip the course's with/without-BVH comparison on cow");
+    try {
+        app.parse(argc, argv);
+    } catch (const CLI::CallForHelp& e) {
+        return app.exit(e);
+    } catch (const CLI::ParseError& e) {
+        fail(e.what());
+    }
+    if (quick) {
+        rays = std::min<size_t>(rays, 5000);
+        repeats = 1;
+    }
+    if (scene_paths.empty()) {
+        scene_paths.push_back(std::string(PT_SOURCE_DIR_BENCH) + "/scenes/cornell.dae");
+        if (!quick)
+            for (const char* f : {"cow.dae", "CBbunny.dae", "maxplanck.dae"})
+                if (std::filesystem::exists(shared + f)) scene_paths.push_back(shared + f);
+    }
+    if (thread_counts.empty()) {
+        thread_counts = {1};
+        const int all = int(std::max(1u, std::thread::hardware_concurrency()));
+        if (all > 1) thread_counts.push_back(all);
+    }
+    std::vector<renderer::RayKind> kinds;
+    {
+        std::stringstream ss(kinds_arg);
+        for (std::string k; std::getline(ss, k, ',');) {
+            renderer::RayKind kind;
+            if (!renderer::parse_ray_kind(k, kind)) fail("--kinds: unknown ray kind '" + k + "'");
+            kinds.push_back(kind);
+        }
+    }
+    const auto available = accel::available_backends();
+    const bool have_embree = std::find(available.begin(), available.end(), "embree") != available.end();
+
+    std::vector<Row> rows;
+    for (const std::string& path : scene_paths) {
+        scenes::Scene scene;
+        try {
+            scene = scenes::load_scene(path);
+        } catch (const scenes::SceneError& e) {
+            fail(e.what());
+        }
+        const uint64_t tris = scene.num_triangles();
+        std::string list = backends_arg;
+        if (list.empty()) {
+            list = "custom:midpoint,custom:sah";
+            if (have_embree) list += ",embree:high,embree:high:count";
+            if (tris <= 10000) list = "naive," + list;
+        }
+        std::vector<renderer::BackendSpec> specs;
+        try {
+            specs = renderer::parse_backend_specs(list);
+        } catch (const std::invalid_argument& e) {
+            fail(e.what());
+        }
+        renderer::SceneGeometry geometry(scene);
+        std::vector<std::unique_ptr<accel::Accelerator>> accels;
+        std::vector<double> build_ms;
+        for (const auto& s : specs) {
+            const auto t0 = Clock::now();
+            accels.push_back(renderer::build_accelerator(s.backend, geometry, s.options, false));
+            build_ms.push_back(std::chrono::duration<double, std::milli>(Clock::now() - t0).count());
+        }
+        // The ray sets, generated once with the first BVH-like backend, traced by all.
+        const accel::Accelerator& gen = *accels[std::min<size_t>(accels.size() - 1, tris <= 10000 ? 1 : 0)];
+        const std::string name = std::filesystem::path(path).filename().string();
+        for (renderer::RayKind kind : kinds) {
+            renderer::RaySetOptions ro;
+            ro.count = rays;
+            const renderer::RaySet set = renderer::make_ray_set(kind, scene, gen, ro);
+            for (int threads : thread_counts) {
+                std::map<std::string, double> rate;
+                size_t first = rows.size();
+                for (size_t i = 0; i < accels.size(); ++i) {
+                    // Naive only for the single-threaded camera rays: enough to show its cost.
+                    if (specs[i].backend == "naive" && (threads != 1 || kind != renderer::RayKind::Camera))
+                        continue;
+                    std::fprintf(stderr, "[accel_bench] %s %s rays, %d thread(s), %s\n", name.c_str(),
+                                 renderer::ray_kind_name(kind), threads, specs[i].label.c_str());
+                    accel::TraceStats st;
+                    const double mr = measure(*accels[i], set, threads,
+                                              specs[i].backend == "naive" ? 1 : repeats, st);
+                    const auto& info = accels[i]->info();
+                    rows.push_back({name, tris, specs[i].label, renderer::ray_kind_name(kind), threads, mr, 0,
+                                    st.tests_per_ray(), st.nodes_per_ray(), build_ms[i], info.bytes,
+                                    info.counts_prims, info.counts_nodes});
+                    rate[specs[i].label] = mr;
+                }
+                const double ref = rate.count("embree:high") ? rate["embree:high"] : 0.0;
+                for (size_t r = first; r < rows.size(); ++r) rows[r].ratio = ref > 0 ? rows[r].mrays / ref : 0.0;
+            }
+        }
+    }
+
+    std::printf("%-18s %9s %-22s %-8s %3s %9s %9s %10s %10s %9s %10s\n", "scene", "triangles", "backend", "rays",
+                "thr", "Mrays/s", "vs embree", "tests/ray", "nodes/ray", "build ms", "MiB");
+    for (const Row& r : rows)
+        std::printf("%-18s %9llu %-22s %-8s %3d %9.3f %9.3f %10s %10s %9.1f %10.2f\n", r.scene.c_str(),
+                    (unsigned long long)r.triangles, r.backend.c_str(), r.kind.c_str(), r.threads, r.mrays,
+                    r.ratio, r.counts_prims ? fmt::format("{:.2f}", r.tests_per_ray).c_str() : "-",
+                    r.counts_nodes ? fmt::format("{:.2f}", r.nodes_per_ray).c_str() : "-", r.build_ms,
+                    double(r.bytes) / (1024.0 * 1024.0));
+    if (!csv_path.empty()) {
+        const std::string tmp = csv_path + ".tmp";
+        {
+            std::ofstream out(tmp);
+            out << "scene,triangles,backend,ray_kind,threads,mrays_per_s,ratio_to_embree,tests_per_ray,"
+                   "nodes_per_ray,build_ms,bytes\n";
+            for (const Row& r : rows)
+                out << fmt::format("{},{},{},{},{},{:.4f},{:.4f},{},{},{:.2f},{}\n", r.scene, r.triangles,
+                                   r.backend, r.kind, r.threads, r.mrays, r.ratio,
+                                   r.counts_prims ? fmt::format("{:.3f}", r.tests_per_ray) : "",
+                                   r.counts_nodes ? fmt::format("{:.3f}", r.nodes_per_ray) : "", r.build_ms,
+                                   r.bytes);
+            if (!out) fail(csv_path + ": write failed");
+        }
+        std::filesystem::rename(tmp, csv_path);
+        std::printf("wrote %s\n", csv_path.c_str());
+    }
+    if (!no_course && !quick && std::filesystem::exists(shared + "cow.dae")) course_comparison(shared + "cow.dae", 800, 600);
+    return 0;
+}
