@@ -83,7 +83,13 @@ RenderResult render(const Camera& camera, const Integrator& integrator,
         const int x1 = std::min(x0 + s.tile, cell.x + cell.w);
         const int y1 = std::min(y0 + s.tile, cell.y + cell.h);
         uint64_t samples = 0, nans = 0;
-        for (int y = y0; y < y1; ++y)
+        bool stopped = false;
+        for (int y = y0; y < y1 && !stopped; ++y) {
+            // Checked per row too, so Ctrl-C answers promptly at high sample counts.
+            if (s.cancel && s.cancel->load(std::memory_order_relaxed)) {
+                stopped = true;
+                break;
+            }
             for (int x = x0; x < x1; ++x) {
                 Rng rng(s.seed, uint64_t(y) * uint64_t(s.width) + uint64_t(x));
                 const uint64_t nodes0 = stats.nodes_visited, tests0 = stats.prim_tests;
@@ -136,8 +142,10 @@ RenderResult render(const Camera& camera, const Integrator& integrator,
                 p[kCostTests] = float(stats.prim_tests - tests0) / float(taken);
                 p[kNaN] = float(bad);
             }
+        }
         thread_nans.local() += nans;
         thread_samples.local() += samples;
+        if (stopped) return;  // an unfinished tile does not count as done
         ++tiles_done;
         progress.tile_done(stats.total_rays() - rays_before);
     };

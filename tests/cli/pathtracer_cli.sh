@@ -43,6 +43,29 @@ grep -q "\[PathTracer\] BVH traced" "$TMP/out" || { echo "FAIL course line 'BVH 
 check render-exr 0 "Wrote" -- "$PT" --integrator=normals -r 32 24 -f "$TMP/c.exr" "$SRC/scenes/cornell.dae"
 check unwritable-output 2 "/nonexistent/dir/x.png" -- "$PT" --integrator=normals -r 16 12 -f /nonexistent/dir/x.png "$SRC/scenes/cornell.dae"
 check bad-extension 2 "x.nope" -- "$PT" --integrator=normals -r 16 12 -f "$TMP/x.nope" "$SRC/scenes/cornell.dae"
+# The EXR keeps the AOVs as float channels.
+if command -v oiiotool >/dev/null; then
+  info=$(oiiotool --info -v "$TMP/c.exr" 2>&1)
+  for ch in R G B N.X albedo.R Z samples variance cost.nodes cost.tests nan; do
+    echo "$info" | grep -q -- "$ch" || { echo "FAIL EXR lacks channel $ch"; fails=$((fails+1)); }
+  done
+fi
+# Adaptive sampling writes the course's NAME_rate.png; --cost writes the cost maps.
+check adaptive-rate 0 "Wrote $TMP/a_rate.png" -- "$PT" -q -r 32 24 -s 64 -a 16 0.05 --cost -f "$TMP/a.png" "$SRC/scenes/cornell.dae"
+for f in a.png a_rate.png a_nodes.png a_tests.png; do
+  [ -s "$TMP/$f" ] || { echo "FAIL $f not written"; fails=$((fails+1)); }
+done
+check bad-adaptive 2 "-a" -- "$PT" -a 0 0.05 "$SRC/scenes/cornell.dae"
+# -p renders one cell only: pixels outside it stay black.
+check cell 0 "Wrote" -- "$PT" -q -r 40 30 -s 4 -p 10 10 8 8 -f "$TMP/cell.exr" "$SRC/scenes/cornell.dae"
+# Ctrl-C: the finished pixels are written, marked partial, exit status 130.
+"$PT" -s 4096 -r 200 150 -t 1 -f "$TMP/int.exr" "$SRC/scenes/cornell.dae" >"$TMP/int.out" 2>"$TMP/int.err" &
+pid=$!; sleep 3; kill -INT $pid; wait $pid; st=$?
+if [ "$st" -ne 130 ] || ! grep -q "partial" "$TMP/int.out" || [ ! -s "$TMP/int.exr" ]; then
+  echo "FAIL interrupt: exit $st, expected 130 with a partial image"; tail -3 "$TMP/int.err"; fails=$((fails+1))
+else
+  echo "ok   interrupt-writes-partial"; passes=$((passes+1))
+fi
 leftovers=$(ls -A "$TMP" | grep -c '\.tmp' || true)
 [ "$leftovers" -eq 0 ] || { echo "FAIL temporary files left behind: $(ls -A "$TMP")"; fails=$((fails+1)); }
 
