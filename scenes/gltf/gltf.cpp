@@ -380,7 +380,6 @@ private:
     std::vector<int> material_uv_set_;   // per scene material, -1 = no texture used
     std::map<int, uint32_t> textures_;   // glTF image -> scene texture
     std::set<std::string> ignored_material_features_;
-    std::vector<std::string> range_ignored_;
     uint64_t elements_ = 0;
     uint64_t decoded_elements_ = 0;
     int cameras_seen_ = 0;
