@@ -61,7 +61,10 @@ SPHERES = [
 ]
 
 # Camera on the open side, looking along +y with +z up: local X -> +x, Y -> +z, Z -> -y.
-CAMERA_POS = (0.0, -4.3, 0.85)
+# At z = 0 like the course's Cornell boxes: the course framing looks along the camera
+# transform applied to (0,0,-1) *with* translation, so a camera at the box's mid-height
+# would tilt that view down onto the outside of the ceiling.
+CAMERA_POS = (0.0, -4.3, 0.0)
 
 
 def fmt(v):
