@@ -4,6 +4,7 @@
 // (Embree's BVH, our primitive tests).
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
@@ -307,6 +308,19 @@ TEST(EmbreeAgreement, CountingModeMatchesNaive) {
             EXPECT_GT(rep.hits, rep.rays / 10) << name;
         }
     }
+}
+
+// What the tools call: the factory must hand out this backend under its name.
+TEST(EmbreeAgreement, FactoryBuildsEmbree) {
+    const auto names = available_backends();
+    EXPECT_NE(std::find(names.begin(), names.end(), "embree"), names.end());
+    Scenario s = make_scenario("mixed");
+    AccelOptions o = options(true, TriangleTest::Watertight);
+    o.embree_quality = EmbreeQuality::Low;
+    o.embree_robust = true;
+    auto e = create_accelerator("embree", s.views, o);
+    EXPECT_EQ(e->info().backend, "embree(count, low, watertight, robust)");
+    expect_agreement(*e, *naive(s.views, o), random_rays(2000, 51), "factory", Tolerance::exact());
 }
 
 TEST(EmbreeAgreement, BoundsMatchNaive) {
