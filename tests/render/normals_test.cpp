@@ -2,13 +2,17 @@
 // not blank and the shading normals face the camera.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <filesystem>
 
 #include "renderer/camera.h"
 #include "renderer/integrators/normals.h"
 #include "renderer/render.h"
+#include "renderer/raysets.h"
 #include "renderer/scene_geometry.h"
+#include "renderer/xcheck.h"
 #include "scenes/load.h"
 
 namespace {
@@ -95,4 +99,34 @@ TEST(NormalShading, Cow) {
     // Interpolated normals can turn slightly away at silhouettes; almost all must face us.
     EXPECT_GT(s.facing_fraction, 0.97);
     EXPECT_GT(s.rgb_stddev, 0.05);
+}
+
+// CBbunny's normal-shaded image from our BVH and from Embree: every camera ray (one per
+// pixel, the course's 480x360 view) hits the same triangle, except at ties where both hit
+// triangles sharing an edge or vertex at the same distance (or within rounding of one).
+TEST(NormalShading, CBbunnyCustomAndEmbreeSameImageUpToTiePixels) {
+    if (!std::filesystem::exists(PT_SHARED_SCENES))
+        GTEST_SKIP() << "shared scene corpus not found at " << PT_SHARED_SCENES;
+    const auto names = accel::available_backends();
+    if (std::find(names.begin(), names.end(), "embree") == names.end())
+        GTEST_SKIP() << "this build has no Embree backend";
+    scenes::Scene scene = scenes::load_scene(shared("cs184/CBbunny.dae"));
+    renderer::SceneGeometry geometry(scene);
+    auto custom = renderer::build_accelerator("custom", geometry, {}, false);
+    auto embree = renderer::build_accelerator("embree", geometry, {}, false);
+    const int w = 480, h = 360;
+    auto cam = renderer::make_camera(scene, renderer::CameraMode::Auto, w, h);
+    renderer::RaySet set;
+    set.kind = renderer::RayKind::Camera;
+    for (int y = 0; y < h; ++y)
+        for (int x = 0; x < w; ++x) set.rays.push_back(cam.camera.generate_ray((x + 0.5f) / w, (y + 0.5f) / h));
+    renderer::KindReport r =
+        renderer::compare_backends(*custom, "custom", *embree, "embree", set, geometry, nullptr);
+    std::printf("CBbunny 480x360: %llu pixels, %llu differ: %llu edge/vertex ties, %llu numerical, %llu real\n",
+                (unsigned long long)r.rays, (unsigned long long)(r.rays - r.prim_agree),
+                (unsigned long long)r.ties, (unsigned long long)r.numerical, (unsigned long long)r.real);
+    EXPECT_EQ(r.real, 0u);
+    EXPECT_EQ(r.rays - r.prim_agree, r.ties + r.numerical);
+    EXPECT_LT(double(r.ties + r.numerical), 0.005 * double(r.rays));
+    EXPECT_LT(r.max_rel_dt, 1e-4);
 }
