@@ -5,9 +5,12 @@
 #include <algorithm>
 #include <cmath>
 
+#include "renderer/interaction.h"
 #include "renderer/sampling.h"
 
 namespace renderer {
+
+using accel::Vec2f;
 
 namespace {
 
@@ -38,7 +41,7 @@ Vec3f radiance_of(const scenes::Material& m) { return m.emission; }
 
 }  // namespace
 
-LightSet::LightSet(const scenes::Scene& scene, std::vector<std::string>& notes) {
+LightSet::LightSet(const scenes::Scene& scene, std::vector<std::string>& notes) : scene_(&scene) {
     // Emissive meshes: one light each, sampled by area over its triangles.
     std::vector<bool> mesh_is_light(scene.meshes.size(), false);
     for (size_t mi = 0; mi < scene.meshes.size(); ++mi) {
@@ -47,6 +50,8 @@ LightSet::LightSet(const scenes::Scene& scene, std::vector<std::string>& notes) 
         Light l{};
         l.kind = Kind::Mesh;
         l.radiance = radiance_of(scene.materials[m.material]);
+        // A texture modulates emission only where the mesh has uvs to look it up with.
+        if (!m.uvs.empty()) l.texture = scene.materials[m.material].emission_texture;
         l.first_tri = uint32_t(tris_.size());
         float total = 0;
         for (uint32_t t = 0; t < m.num_triangles(); ++t) {
@@ -62,7 +67,7 @@ LightSet::LightSet(const scenes::Scene& scene, std::vector<std::string>& notes) 
                                   m.normals[m.indices[3 * t + 2]];
                 if (accel::dot(avg, ng) < 0) ng = -ng;
             }
-            tris_.push_back({a, b - a, c - a, ng});
+            tris_.push_back({a, b - a, c - a, ng, uint32_t(mi), t});
             total += area;
             cdf_.push_back(total);
         }
@@ -181,7 +186,17 @@ bool LightSet::sample(size_t i, const Vec3f& p, const Vec3f& n, Rng& rng, LightS
             float a = rng.next_float(), b = rng.next_float();
             if (a + b > 1.0f) { a = 1.0f - a; b = 1.0f - b; }
             const Vec3f q = t.v0 + t.e1 * a + t.e2 * b;
-            return finite_area(q, t.n, 1.0f / l.area, false);
+            if (!finite_area(q, t.n, 1.0f / l.area, false)) return false;
+            if (l.texture != scenes::kNoTexture) {
+                const scenes::Mesh& m = scene_->meshes[t.mesh];
+                const uint32_t* idx = &m.indices[3 * size_t(t.index)];
+                const Vec2f u0 = m.uvs[idx[0]], u1 = m.uvs[idx[1]], u2 = m.uvs[idx[2]];
+                const float w0 = 1.0f - a - b;
+                const Vec2f uv{u0.x * w0 + u1.x * a + u2.x * b, u0.y * w0 + u1.y * a + u2.y * b};
+                out.radiance = out.radiance * texel(*scene_, l.texture, uv);
+                if (!(accel::max_component(out.radiance) > 0)) return false;
+            }
+            return true;
         }
         case Kind::Sphere: {
             const Vec3f nl = uniform_sphere(rng.next_float(), rng.next_float());

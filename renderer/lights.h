@@ -60,15 +60,18 @@ private:
         float radius = 0;
         float cos_inner = 1, cos_outer = 0;
         uint32_t first_tri = 0, num_tris = 0;    // mesh: range in tris_/cdf_
+        uint32_t texture = scenes::kNoTexture;   // mesh: emission texture
     };
     struct Tri {
         Vec3f v0, e1, e2;
         Vec3f n;  ///< unit normal of the emitting side
+        uint32_t mesh, index;  ///< for textured emission: where to find the uvs
     };
     std::vector<Light> lights_;
     std::vector<Tri> tris_;    // emissive triangles, grouped by mesh light
     std::vector<float> cdf_;   // per mesh light: running area, normalised to 1 at its end
     int env_ = -1;
+    const scenes::Scene* scene_ = nullptr;  // for emission textures
 };
 
 }  // namespace renderer

@@ -804,6 +804,9 @@ uint32_t Loader::material_index(int mi, const std::string& user) {
         if (!is_finite(emissive) || emissive.x < 0 || emissive.y < 0 || emissive.z < 0)
             fail(mdesc + ": emission (emissiveFactor x emissiveStrength) must be finite and non-negative");
         out.emission = emissive;
+        // glTF adds emission on top of the reflected light (glTF 2.0 spec, 3.9.3), unlike
+        // the CS184 panels, which only emit.
+        out.emitter_reflects = true;
 
         if (pbr.baseColorTexture.texCoord < 0 || g.emissiveTexture.texCoord < 0)
             fail(mdesc + ": negative texCoord");
@@ -830,7 +833,7 @@ uint32_t Loader::material_index(int mi, const std::string& user) {
             }
         }
         if (out.albedo_texture != kNoTexture && out.is_emissive())
-            note(mdesc + ": emissive, so the renderer ignores its albedo/baseColorTexture");
+            note(mdesc + ": emissive and textured: it both emits and reflects its base colour");
         // Unneeded textures are never decoded, but a dangling reference is still an error.
         if (pbr.metallicRoughnessTexture.index >= 0)
             texture_image(pbr.metallicRoughnessTexture.index, mdesc + " metallicRoughnessTexture");
