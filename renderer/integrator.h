@@ -8,6 +8,7 @@
 #include "accel/accelerator.h"
 #include "renderer/rng.h"
 #include "renderer/scene_geometry.h"
+#include "renderer/spawn.h"
 #include "scenes/scene.h"
 
 namespace renderer {
@@ -37,6 +38,10 @@ struct IntegratorSettings {
     bool hemisphere = false;    ///< -H: uniform hemisphere sampling for direct light
     float rr_continue = 0.65f;  ///< --rr: Russian roulette continuation probability
     std::string only;           ///< --only=direct|indirect ("" = both)
+    /// --offset: how secondary rays leave surfaces (renderer/spawn.h). ErrorBound offsets
+    /// by the hit point's floating-point error bound (pbrt-v4 6.8); Epsilon is the plain
+    /// scale-relative epsilon, kept for comparison.
+    OffsetMode offset = OffsetMode::ErrorBound;
 };
 
 class Integrator {

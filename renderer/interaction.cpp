@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <cmath>
 
+#include "renderer/spawn.h"
+
 namespace renderer {
 
 Vec3f texel(const scenes::Scene& scene, uint32_t texture, const Vec2f& uv) {
@@ -19,6 +21,22 @@ Vec3f texel(const scenes::Scene& scene, uint32_t texture, const Vec2f& uv) {
     return {p[0], p[1], p[2]};
 }
 
+void triangle_point(const Vec3f& p0, const Vec3f& p1, const Vec3f& p2, float u, float v, Vec3f& p,
+                    Vec3f& p_error) {
+    const float b0 = 1.0f - u - v;
+    const Vec3f a = p0 * b0, b = p1 * u, c = p2 * v;
+    p = a + b + c;
+    p_error = (accel::vabs(a) + accel::vabs(b) + accel::vabs(c)) * gamma_bound(7);
+}
+
+void sphere_point(const Vec3f& c, float r, const Vec3f& p_hit, Vec3f& p, Vec3f& p_error) {
+    Vec3f q = p_hit - c;  // object space (sphere at the origin)
+    const float len = accel::length(q);
+    if (len > 0.0f && std::isfinite(len)) q = q * (r / len);
+    p = c + q;
+    p_error = accel::vabs(q) * gamma_bound(5) + (accel::vabs(c) + accel::vabs(q)) * gamma_bound(1);
+}
+
 Interaction make_interaction(const scenes::Scene& scene, const SceneGeometry& geometry,
                              const accel::Ray& ray, const accel::Hit& hit) {
     Interaction it;
@@ -29,9 +47,16 @@ Interaction make_interaction(const scenes::Scene& scene, const SceneGeometry& ge
     it.material = geometry.material(hit.geom_id, hit.prim_id);
     const GeomSource& src = geometry.source(hit.geom_id);
     it.sphere = src.kind == GeomSource::Spheres;
+    if (it.sphere) {
+        const accel::GeometryView& g = geometry.views()[hit.geom_id];
+        const float* s = g.spheres + 4 * size_t(hit.prim_id);
+        sphere_point(Vec3f(s[0], s[1], s[2]), s[3], it.p, it.p, it.p_error);
+    }
     if (src.kind == GeomSource::Mesh) {
         const scenes::Mesh& m = scene.meshes[src.mesh];
         const uint32_t* idx = &m.indices[3 * size_t(hit.prim_id)];
+        triangle_point(m.positions[idx[0]], m.positions[idx[1]], m.positions[idx[2]], hit.u, hit.v, it.p,
+                       it.p_error);
         const float w0 = 1.0f - hit.u - hit.v;
         if (!m.normals.empty()) {
             Vec3f n = m.normals[idx[0]] * w0 + m.normals[idx[1]] * hit.u + m.normals[idx[2]] * hit.v;

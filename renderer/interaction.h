@@ -12,6 +12,10 @@ using accel::Vec3f;
 
 struct Interaction {
     Vec3f p;        ///< hit point
+    /// Conservative per-axis bound on |p - exact surface point| from floating-point
+    /// rounding (pbrt-v4, "Physically Based Rendering" 4th ed., 6.8): spawned rays start
+    /// outside this box (renderer/spawn.h).
+    Vec3f p_error;
     Vec3f ng;       ///< unit geometric normal (triangle winding / sphere outward)
     Vec3f ns;       ///< unit shading normal: interpolated file normals, else ng
     Vec2f uv;       ///< texture coordinates if the mesh stores them
@@ -22,6 +26,20 @@ struct Interaction {
 
 /// Texture value at uv (nearest texel, wrapping); white for kNoTexture.
 Vec3f texel(const scenes::Scene& scene, uint32_t texture, const Vec2f& uv);
+
+/// Hit point rebuilt from the barycentrics of triangle (p0, p1, p2), with its error
+/// bound: pbrt-v4 Triangle::InteractionFromIntersection, p = b0 p0 + b1 p1 + b2 p2 and
+/// p_error = gamma(7) (|b0 p0| + |b1 p1| + |b2 p2|). Rebuilding p from barycentrics
+/// rather than org + t dir keeps the error independent of the ray's length (t's own
+/// rounding error would otherwise scale with the distance travelled).
+void triangle_point(const Vec3f& p0, const Vec3f& p1, const Vec3f& p2, float u, float v, Vec3f& p,
+                    Vec3f& p_error);
+
+/// Hit point re-projected onto the sphere (centre c, radius r), with its error bound:
+/// pbrt-v4 Sphere::InteractionFromIntersection re-projects pHit *= r / |pHit| in object
+/// space, p_error = gamma(5) |pHit|; our spheres live in world space, so adding the
+/// centre back costs one more rounding, bounded by gamma(1) (|c| + |pHit|).
+void sphere_point(const Vec3f& c, float r, const Vec3f& p_hit, Vec3f& p, Vec3f& p_error);
 
 Interaction make_interaction(const scenes::Scene& scene, const SceneGeometry& geometry,
                              const accel::Ray& ray, const accel::Hit& hit);

@@ -1,9 +1,29 @@
 // The one place secondary rays leave surfaces, instead of epsilons scattered over the
 // integrators.
+//
+// Two policies, selectable (IntegratorSettings::offset, `pathtracer --offset`):
+//
+//  - ErrorBound (default): pbrt-v4's approach (Pharr, Jakob, Humphreys, "Physically
+//    Based Rendering", 4th ed., section 6.8 "Managing Rounding Error", OffsetRayOrigin
+//    and SpawnRayTo). Every hit point carries a conservative per-axis bound `p_err` on
+//    the distance between the computed point and the exact surface (see
+//    renderer/interaction.cpp). The origin is pushed along the geometric normal by
+//    dot(|n|, p_err): the projection of the error box onto the normal, so the whole box
+//    and therefore the exact surface lies behind the new origin. The sum is then rounded
+//    away from the surface with next_float_up/down so that the rounding of the sum
+//    itself cannot put the origin back inside the box. The offset scales with the
+//    actual error, which is what makes it work at 1e-6 as well as at 1e7 and far from
+//    the origin, where a fixed epsilon is either far too big (light leaks through thin
+//    walls) or far too small (acne).
+//
+//  - Epsilon: the previous plain scale-relative epsilon, kept to measure against
+//    (benchmarks/extremes.cpp).
 #pragma once
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
+#include <limits>
 
 #include "accel/ray.h"
 
@@ -11,35 +31,137 @@ namespace renderer {
 
 using accel::Vec3f;
 
-/// Offset of a spawned origin along the geometric normal: a few ulps of the hit point's
-/// largest coordinate (rounding of p grows with |p|) plus a tiny fraction of the scene's
-/// size, so it works at any scale and far from the origin.
+enum class OffsetMode : uint8_t { ErrorBound, Epsilon };
+
+inline const char* offset_mode_name(OffsetMode m) {
+    return m == OffsetMode::ErrorBound ? "error-bound" : "epsilon";
+}
+
+/// gamma(n) = n u / (1 - n u), u = 2^-24 the unit roundoff of float: bounds the relative
+/// error of n successive floating-point operations (Higham 2002; pbrt-v4 6.8.1).
+constexpr float gamma_bound(int n) {
+    constexpr float u = std::numeric_limits<float>::epsilon() * 0.5f;
+    return (float(n) * u) / (1.0f - float(n) * u);
+}
+
+/// Next representable float toward +inf / -inf (pbrt-v4 NextFloatUp/Down); -0 and +0
+/// step to the smallest denormal, infinities and NaN stay.
+inline float next_float_up(float v) {
+    if (std::isinf(v) && v > 0.0f) return v;
+    if (v == 0.0f) v = 0.0f;  // -0 -> +0
+    return std::nextafter(v, std::numeric_limits<float>::infinity());
+}
+inline float next_float_down(float v) {
+    if (std::isinf(v) && v < 0.0f) return v;
+    if (v == 0.0f) v = -0.0f;
+    return std::nextafter(v, -std::numeric_limits<float>::infinity());
+}
+
+/// Plain epsilon: a few ulps of the hit point's largest coordinate (rounding of p grows
+/// with |p|) plus a tiny fraction of the scene's size. The pre-issue-8 policy.
 inline float spawn_offset(const Vec3f& p, float scene_scale) {
     const float m = accel::max_component(accel::vabs(p));
     return 0x1p-19f * m + 1e-6f * scene_scale;
 }
 
-/// Ray from surface point p (geometric normal ng) in direction d, starting on the side d
-/// leaves into.
-inline accel::Ray spawn_ray(const Vec3f& p, const Vec3f& ng, const Vec3f& d, float scene_scale) {
+/// pbrt-v4 OffsetRayOrigin: p moved along n, to the side w points into, by the
+/// projection of the error box on n, each coordinate then rounded away from p.
+/// `n` must be unit length (dot(|n|, p_err) is a distance only for unit n).
+inline Vec3f offset_ray_origin(const Vec3f& p, const Vec3f& p_err, const Vec3f& n, const Vec3f& w) {
+    const float d = accel::dot(accel::vabs(n), p_err);
+    const Vec3f side = accel::dot(w, n) < 0.0f ? -n : n;
+    Vec3f po = p + side * d;
+    // Round away from p so the (rounded) addition cannot land back inside the box.
+    // Unlike pbrt-v4 we step by the sign of the normal, not of the offset, so a point
+    // with a zero bound (an exact point, e.g. on the plane z = 0 built from vertices
+    // with z = 0) still moves one ulp off its surface: our intersectors accept t = 0,
+    // where pbrt's triangle test rejects t <= its own error bound on t.
+    for (int i = 0; i < 3; ++i) {
+        if (side[i] > 0.0f)
+            po[i] = next_float_up(po[i]);
+        else if (side[i] < 0.0f)
+            po[i] = next_float_down(po[i]);
+    }
+    return po;
+}
+
+/// Origin for a ray leaving surface point p (unit geometric normal ng, error bound p_err)
+/// in direction d, under `mode`.
+inline Vec3f spawn_origin(const Vec3f& p, const Vec3f& p_err, const Vec3f& ng, const Vec3f& d,
+                          float scene_scale, OffsetMode mode) {
+    if (mode == OffsetMode::ErrorBound) return offset_ray_origin(p, p_err, ng, d);
     const float off = spawn_offset(p, scene_scale);
+    return p + ng * (accel::dot(ng, d) >= 0 ? off : -off);
+}
+
+/// Ray from surface point p in direction d, starting on the side d leaves into.
+inline accel::Ray spawn_ray(const Vec3f& p, const Vec3f& p_err, const Vec3f& ng, const Vec3f& d,
+                            float scene_scale, OffsetMode mode) {
     accel::Ray r;
-    r.org = p + ng * (accel::dot(ng, d) >= 0 ? off : -off);
+    r.org = spawn_origin(p, p_err, ng, d, scene_scale, mode);
     r.dir = d;
     r.t_min = 0.0f;
     r.t_max = accel::kInfinity;
     return r;
 }
 
-/// Shadow segment from p toward `target` (a point on a light), stopping just short of it;
-/// dir is unnormalised, so t runs 0..1.
-inline accel::Ray spawn_segment(const Vec3f& p, const Vec3f& ng, const Vec3f& target, float scene_scale) {
-    accel::Ray r = spawn_ray(p, ng, target - p, scene_scale);
-    r.dir = target - r.org;
+/// Conservative error bound for a point on a light we only know as a position (the
+/// light sampler does not report how it computed the point): pbrt-v4's triangle bound
+/// gamma(7) * sum |b_i p_i| with sum |b_i p_i| approximated by |p|, which holds when the
+/// light is small against its distance from the origin (the usual case). For a light
+/// straddling the origin the bound is low; the relative t guard of spawn_segment
+/// (kShadowEpsilon) then still keeps the segment off the light.
+inline Vec3f light_point_error(const Vec3f& target) { return accel::vabs(target) * gamma_bound(7); }
+
+/// Relative shortening of every shadow segment (t runs 0..1): pbrt-v4's ShadowEpsilon.
+/// Covers the rounding of t itself in the intersectors, which the point bounds do not,
+/// and, when the target's normal is unknown (light samples), part of the grazing
+/// approach to the target's surface. Scale-free, since t is relative to the segment.
+inline constexpr float kShadowEpsilon = 1e-4f;
+
+/// Shadow segment from surface point p toward `target` (a point on a light or another
+/// surface, with its own error bound target_err). dir is unnormalised, t runs 0..1.
+///
+/// ErrorBound: pbrt-v4 SpawnRayTo. The origin is offset as for spawn_ray. The far end
+/// must stop short of the target's error box too, or the segment may report the
+/// light's own surface as the occluder: with the target's unit normal known
+/// (target_n != 0) the end is offset off that surface by OffsetRayOrigin, as pbrt-v4
+/// does; without it, the end backs off along the segment by the box's full extent
+/// (|err|_1, which covers the box whatever the segment's direction). Both then keep
+/// t <= 1 - kShadowEpsilon.
+///
+/// Epsilon: the previous behaviour (back off by twice the plain epsilon at the end).
+inline accel::Ray spawn_segment(const Vec3f& p, const Vec3f& p_err, const Vec3f& ng, const Vec3f& target,
+                                const Vec3f& target_err, float scene_scale, OffsetMode mode,
+                                const Vec3f& target_n = Vec3f(0.0f)) {
+    accel::Ray r;
+    r.org = spawn_origin(p, p_err, ng, target - p, scene_scale, mode);
+    r.t_min = 0.0f;
+    if (mode == OffsetMode::Epsilon) {
+        r.dir = target - r.org;
+        const float len = accel::length(r.dir);
+        const float end_off = spawn_offset(target, scene_scale);
+        r.t_max = len > 0 ? std::max(0.0f, 1.0f - 2.0f * end_off / len) : 0.0f;
+        return r;
+    }
+    const bool has_n = target_n.x != 0.0f || target_n.y != 0.0f || target_n.z != 0.0f;
+    Vec3f end = target;
+    if (has_n) end = offset_ray_origin(target, target_err, target_n, r.org - target);
+    r.dir = end - r.org;
     const float len = accel::length(r.dir);
-    const float end_off = spawn_offset(target, scene_scale);
-    r.t_max = len > 0 ? std::max(0.0f, 1.0f - 2.0f * end_off / len) : 0.0f;
+    float back = 0.0f;  // distance to back off along the segment
+    if (!has_n) back = target_err.x + target_err.y + target_err.z;
+    r.t_max = len > 0 ? std::max(0.0f, 1.0f - kShadowEpsilon - back / len) : 0.0f;
+    if (!(r.t_max >= 0.0f)) r.t_max = 0.0f;  // NaN in, no hit out
     return r;
+}
+
+/// Pre-issue-8 signatures: plain epsilon, no error bounds.
+inline accel::Ray spawn_ray(const Vec3f& p, const Vec3f& ng, const Vec3f& d, float scene_scale) {
+    return spawn_ray(p, Vec3f(0.0f), ng, d, scene_scale, OffsetMode::Epsilon);
+}
+inline accel::Ray spawn_segment(const Vec3f& p, const Vec3f& ng, const Vec3f& target, float scene_scale) {
+    return spawn_segment(p, Vec3f(0.0f), ng, target, Vec3f(0.0f), scene_scale, OffsetMode::Epsilon);
 }
 
 }  // namespace renderer

@@ -98,6 +98,12 @@ int main(int argc, char** argv) {
     app.add_option("--seed", rs.seed, "Random seed (images are identical for any -t)");
     app.add_option("--rr", is.rr_continue, "Russian roulette continuation probability")
         ->check(CLI::Range(0.01f, 1.0f));
+    std::string offset = "error-bound";
+    app.add_option("--offset", offset,
+                   "How secondary rays leave surfaces: error-bound (default; offset by the hit "
+                   "point's floating-point error bound, pbrt-v4 6.8, robust at any scene scale) | "
+                   "epsilon (plain scale-relative epsilon, for comparison)")
+        ->check(CLI::IsMember({"error-bound", "epsilon"}));
     app.add_option("--only", is.only, "direct | indirect: keep one part of the light")
         ->check(CLI::IsMember({"direct", "indirect"}));
     app.add_option("--ocio-config", ocio_config, "OpenColorIO config for PNG/JPEG output (default: ours)")
@@ -137,6 +143,7 @@ int main(int argc, char** argv) {
         rs.adaptive_tol = adaptive[1];
     }
     is.accumulate = accumulate == 1;
+    is.offset = offset == "epsilon" ? renderer::OffsetMode::Epsilon : renderer::OffsetMode::ErrorBound;
     ao.split = bvh == "midpoint" ? accel::BvhSplit::Midpoint : accel::BvhSplit::Sah;
     ao.triangle = tri == "watertight" ? accel::TriangleTest::Watertight : accel::TriangleTest::Fast;
     ao.embree_quality = quality == "low"      ? accel::EmbreeQuality::Low

@@ -83,7 +83,7 @@ Vec3f PathIntegrator::li(const accel::Ray& camera_ray, SampleContext& ctx) const
         const Vec3f wi = to_world(local, it.ns);
         if (!(local.z > 0) || accel::dot(wi, it.ng) <= 0) break;
         beta *= albedo;
-        const accel::Ray ray = spawn_ray(it.p, it.ng, wi, scale_);
+        const accel::Ray ray = spawn_ray(it.p, it.p_error, it.ng, wi, scale_, s_.offset);
         if (!ctx.accel.intersect(ray, hit, ctx.stats)) break;  // environment: counted by direct()
         it = make_interaction(scene_, geometry_, ray, hit);
         wo = -wi;
@@ -111,8 +111,9 @@ Vec3f PathIntegrator::direct_lights(const Interaction& it, const Vec3f& albedo, 
             const float cos_s = accel::dot(it.ns, ls.wi);
             if (!(cos_s > 0) || accel::dot(it.ng, ls.wi) <= 0) continue;
             const accel::Ray shadow = std::isfinite(ls.distance)
-                                          ? spawn_segment(it.p, it.ng, ls.target, scale_)
-                                          : spawn_ray(it.p, it.ng, ls.wi, scale_);
+                                          ? spawn_segment(it.p, it.p_error, it.ng, ls.target,
+                                                          light_point_error(ls.target), scale_, s_.offset)
+                                          : spawn_ray(it.p, it.p_error, it.ng, ls.wi, scale_, s_.offset);
             if (ctx.accel.occluded(shadow, ctx.stats)) continue;
             acc += ls.radiance * f * (cos_s / ls.pdf);
         }
@@ -129,7 +130,7 @@ Vec3f PathIntegrator::direct_hemisphere(const Interaction& it, const Vec3f& albe
         const Vec3f local = uniform_hemisphere(ctx.rng.next_float(), ctx.rng.next_float());
         const Vec3f wi = to_world(local, it.ns);
         if (accel::dot(wi, it.ng) <= 0) continue;
-        const accel::Ray ray = spawn_ray(it.p, it.ng, wi, scale_);
+        const accel::Ray ray = spawn_ray(it.p, it.p_error, it.ng, wi, scale_, s_.offset);
         accel::Hit hit;
         Vec3f Le;
         if (ctx.accel.intersect(ray, hit, ctx.stats))
