@@ -142,13 +142,22 @@ LightSet::LightSet(const scenes::Scene& scene, std::vector<std::string>& notes) 
         }
         lights_.push_back(l);
     }
-    if (lights_.empty()) {
+    // A default light when nothing would light the scene: no explicit light and no
+    // emitter except glow maps (emission textures, as on glTF models: they glow but do
+    // not light their surroundings).
+    bool lit = !scene.lights.empty();
+    for (const Light& l : lights_)
+        if (l.kind != Kind::Mesh || l.texture == scenes::kNoTexture) lit = true;
+    if (!lit) {
         Light l{};
         l.kind = Kind::Environment;
         l.radiance = Vec3f(1.0f);
         env_ = int(lights_.size());
         lights_.push_back(l);
-        notes.push_back("the scene has no lights: using a constant white environment (radiance 1)");
+        notes.push_back(lights_.size() == 1
+                            ? "the scene has no lights: using a constant white environment (radiance 1)"
+                            : "the scene has no lights but glow maps: adding a constant white environment "
+                              "(radiance 1)");
     }
 }
 
