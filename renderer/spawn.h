@@ -94,13 +94,26 @@ inline Vec3f spawn_origin(const Vec3f& p, const Vec3f& p_err, const Vec3f& ng, c
     return p + ng * (accel::dot(ng, d) >= 0 ? off : -off);
 }
 
+/// t_min for a ray spawned from a point with error box p_err: hits closer to the origin
+/// than the box's extent (|p_err|_1, at least its half-diagonal) are within the
+/// uncertainty of the point itself and are rejected. This stands in for pbrt-v4's
+/// conservative "t > deltaT" test inside its triangle intersector (6.8.6), which our
+/// intersectors (accel/triangle.h) do not have: without it, a point on an edge between
+/// two faces, offset along one face's normal, still sits on the other face's plane and
+/// hits it at t ~ 0 (measured by benchmarks/extremes).
+inline float spawn_t_min(const Vec3f& p_err, const Vec3f& d) {
+    const float len = accel::length(d);
+    const float t = (p_err.x + p_err.y + p_err.z) / len;
+    return len > 0.0f && t >= 0.0f && std::isfinite(t) ? t : 0.0f;
+}
+
 /// Ray from surface point p in direction d, starting on the side d leaves into.
 inline accel::Ray spawn_ray(const Vec3f& p, const Vec3f& p_err, const Vec3f& ng, const Vec3f& d,
                             float scene_scale, OffsetMode mode) {
     accel::Ray r;
     r.org = spawn_origin(p, p_err, ng, d, scene_scale, mode);
     r.dir = d;
-    r.t_min = 0.0f;
+    r.t_min = mode == OffsetMode::ErrorBound ? spawn_t_min(p_err, d) : 0.0f;
     r.t_max = accel::kInfinity;
     return r;
 }
@@ -148,6 +161,7 @@ inline accel::Ray spawn_segment(const Vec3f& p, const Vec3f& p_err, const Vec3f&
     Vec3f end = target;
     if (has_n) end = offset_ray_origin(target, target_err, target_n, r.org - target);
     r.dir = end - r.org;
+    r.t_min = spawn_t_min(p_err, r.dir);
     const float len = accel::length(r.dir);
     float back = 0.0f;  // distance to back off along the segment
     if (!has_n) back = target_err.x + target_err.y + target_err.z;

@@ -1,0 +1,148 @@
+// extremes: the numerical-stability sweep of issue 8 (leaks, acne, grazing/axis rays,
+// t and barycentrics against a double-precision reference) over generated closed meshes
+// and the CS184 meshes, at scales 1e-6 .. 1e7 and translations up to 1e6, for every
+// backend and both ray-offset modes. The measurements live in benchmarks/extremes.h
+// (shared with tests/stability/).
+//
+// Exit status: 0 when the custom watertight mode leaked no ray and the error-bound
+// offset's false self-hit rate stayed below 1e-6 for every backend at every placement;
+// 1 otherwise; 2 on bad options.
+#include <CLI/CLI.hpp>
+#include <fmt/format.h>
+
+#include <chrono>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+
+#include "benchmarks/extremes.h"
+
+using namespace extremes;
+
+namespace {
+
+std::string rate(uint64_t bad, uint64_t n) {
+    if (n == 0) return "n/a";
+    if (bad == 0) return fmt::format("0/{:.1e}", double(n));
+    return fmt::format("{:.2e}", double(bad) / double(n));
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+    CLI::App app{"Numerical-stability sweep (issue 8): leaks at shared edges and vertices, false "
+                 "self-hits (acne) per ray-offset mode, grazing and axis-parallel rays, t and "
+                 "barycentrics against a double-precision reference; per backend, per scale."};
+    uint64_t rays = 1000000;
+    uint64_t acne = 0, ref = 0;
+    bool quick = false, no_embree = false, no_cs184 = false;
+    std::string csv = "extremes.csv";
+    std::string scenes_dir = std::string(PT_SOURCE_DIR_BENCH) + "/../shared/scenes/cs184";
+    uint64_t seed = 8;
+    app.add_option("--rays", rays,
+                   "Edge-and-vertex (leak) rays per placement and backend, split over the meshes");
+    app.add_option("--acne", acne, "Surface points per placement and backend for the acne rays (default rays/5)");
+    app.add_option("--ref", ref, "Reference-comparison rays per placement and backend (default rays/10)");
+    app.add_flag("--quick", quick, "Smoke run: 20000 leak rays, a reduced placement list");
+    app.add_flag("--no-embree", no_embree, "Only the custom backends");
+    app.add_flag("--no-cs184", no_cs184, "Only the generated meshes");
+    app.add_option("--scenes", scenes_dir, "Folder with cow.dae, teapot.dae, bunny.dae");
+    app.add_option("--csv", csv, "CSV output (one row per placement, mesh and backend)");
+    app.add_option("--seed", seed, "Random seed");
+    CLI11_PARSE(app, argc, argv);
+    if (quick) rays = 20000;
+    if (acne == 0) acne = std::max<uint64_t>(1, rays / 5);
+    if (ref == 0) ref = std::max<uint64_t>(1, rays / 10);
+
+    // Meshes: two generated closed convex ones, then the CS184 meshes if present.
+    std::vector<UnitMesh> meshes = {make_icosphere(3), make_cube(8)};
+    if (!no_cs184) {
+        for (const char* name : {"cow", "teapot", "bunny"}) {
+            const std::string path = scenes_dir + "/" + name + ".dae";
+            if (!std::filesystem::exists(path)) {
+                std::printf("skip %s: %s not found\n", name, path.c_str());
+                continue;
+            }
+            try {
+                meshes.push_back(load_unit_mesh(path, name));
+            } catch (const std::exception& e) {
+                std::printf("skip %s: %s\n", name, e.what());
+            }
+        }
+    }
+
+    // Scales 1e-6 .. 1e7, each at the origin and translated far away (offset / scale up
+    // to 1e4, absolute offset up to 1e6), plus s = 1 at 1e6: the unit mesh on a grid of
+    // 1/16 (float spacing at 1e6), where many triangles collapse.
+    std::vector<Placement> places = {{1e-6, 0}, {1e-6, 1e-2}, {1e-3, 0}, {1e-3, 10},  {1, 0},    {1, 1e4},
+                                     {1, 1e6},  {1e3, 0},    {1e3, 1e6}, {1e7, 0},   {1e7, 1e6}};
+    if (quick) places = {{1e-6, 1e-2}, {1, 0}, {1, 1e6}, {1e7, 1e6}};
+
+    std::vector<std::string> available = accel::available_backends();
+    const bool have_embree = !no_embree && std::find(available.begin(), available.end(), "embree") != available.end();
+    if (!no_embree && !have_embree) std::printf("embree: not in this build, skipped\n");
+    const std::vector<BackendCase> backends = backend_cases(have_embree);
+
+    std::ofstream out(csv);
+    out << "scale,offset,mesh,backend,dropped,leak_rays,leaks,axis_rays,axis_leaks,"
+           "hemi_rays_eb,hemi_false_eb,shadow_rays_eb,shadow_false_eb,"
+           "hemi_rays_eps,hemi_false_eps,shadow_rays_eps,shadow_false_eps,"
+           "ref_rays,ref_compared,grazing_rays,wrong_miss,max_rel_t,max_bary\n";
+
+    fmt::print("extremes: {} leak rays, {} acne points, {} reference rays per placement and backend; "
+               "{} meshes, {} placements, {} backends\n",
+               rays, acne, ref, meshes.size(), places.size(), backends.size());
+    fmt::print("{:<16} {:<18} {:>7} {:>9} {:>9} {:>8} | {:>11} {:>11} | {:>11} {:>11} | {:>9} {:>6} {:>9} {:>9}\n",
+               "placement", "backend", "dropped", "leakrays", "leaks", "axisleak", "acne(eb)", "false(eb)",
+               "acne(eps)", "false(eps)", "refrays", "wmiss", "max|dt|/t", "max|db|");
+    const auto t_start = std::chrono::steady_clock::now();
+    bool failed = false;
+    std::vector<std::string> failures;
+    for (const Placement& pl : places) {
+        std::vector<World> worlds;
+        for (const UnitMesh& m : meshes) worlds.push_back(place_mesh(m, pl));
+        for (const BackendCase& bc : backends) {
+            Counts sum;
+            for (size_t mi = 0; mi < worlds.size(); ++mi) {
+                const World& w = worlds[mi];
+                const accel::GeometryView gv = w.view();
+                std::unique_ptr<accel::Accelerator> acc =
+                    accel::create_accelerator(bc.backend, std::span<const accel::GeometryView>(&gv, 1), bc.options);
+                RayBudget b;
+                b.leak = rays / worlds.size() + (mi < rays % worlds.size());
+                b.acne = acne / worlds.size() + 1;
+                b.ref = ref / worlds.size() + 1;
+                g_debug_label = bc.label + " " + pl.label();
+                const Counts c = measure(w, *acc, b, seed + mi);
+                sum.add(c);
+                out << fmt::format("{:g},{:g},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{:.3e},{:.3e}\n",
+                                   pl.scale, pl.offset, w.name, bc.label, c.dropped, c.leak_rays, c.leaks,
+                                   c.axis_rays, c.axis_leaks, c.hemi_rays[0], c.hemi_false[0], c.shadow_rays[0],
+                                   c.shadow_false[0], c.hemi_rays[1], c.hemi_false[1], c.shadow_rays[1],
+                                   c.shadow_false[1], c.ref_rays, c.ref_compared, c.grazing_rays, c.wrong_miss,
+                                   c.max_rel_t, c.max_bary);
+                out.flush();
+            }
+            fmt::print("{:<16} {:<18} {:>7} {:>9} {:>9} {:>8} | {:>11} {:>11} | {:>11} {:>11} | {:>9} {:>6} {:>9.2e} {:>9.2e}\n",
+                       pl.label(), bc.label, sum.dropped, sum.leak_rays, sum.leaks, sum.axis_leaks,
+                       sum.acne_rays(0), rate(sum.acne_false(0), sum.acne_rays(0)), sum.acne_rays(1),
+                       rate(sum.acne_false(1), sum.acne_rays(1)), sum.ref_rays, sum.wrong_miss, sum.max_rel_t,
+                       sum.max_bary);
+            std::fflush(stdout);
+            if (bc.label == "custom-watertight" && sum.leaks > 0) {
+                failed = true;
+                failures.push_back(fmt::format("{} {}: {} leaks", pl.label(), bc.label, sum.leaks));
+            }
+            if (sum.acne_rays(0) > 0 && double(sum.acne_false(0)) / double(sum.acne_rays(0)) >= 1e-6) {
+                failed = true;
+                failures.push_back(fmt::format("{} {}: error-bound false self-hit rate {:.2e}", pl.label(),
+                                               bc.label, double(sum.acne_false(0)) / double(sum.acne_rays(0))));
+            }
+        }
+    }
+    const double secs = std::chrono::duration<double>(std::chrono::steady_clock::now() - t_start).count();
+    fmt::print("wrote {} ({:.1f} s)\n", csv, secs);
+    for (const std::string& f : failures) fmt::print("FAIL {}\n", f);
+    fmt::print("{}\n", failed ? "FAILED" : "OK: no watertight leak, error-bound false self-hit rate < 1e-6 everywhere");
+    return failed ? 1 : 0;
+}

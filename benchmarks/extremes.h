@@ -1,0 +1,684 @@
+// Numerical-stability stress kernel (issue 8), shared by the `extremes` sweep
+// (benchmarks/extremes.cpp) and its fast version in tests/stability/. Header-only so the
+// test and the tool run the very same measurements.
+//
+// What is measured, per mesh, scale/translation and backend:
+//  - leaks: rays aimed exactly at a point of a shared edge, or at a vertex, of a
+//    consistently oriented manifold mesh, coming from the front of EVERY face around
+//    that edge/vertex. The faces' projections along such a ray then cover a neighbourhood
+//    of the target, so an exact intersector must report a hit at t <= 1 (the target
+//    point is at t = 1, modulo one rounding of org/dir). No hit there is a leak: the
+//    ray slipped between triangles (Woop, Benthin, Wald 2013 guarantee 0 for the
+//    watertight test). Some of these rays are exactly axis-parallel (direction
+//    components +-0), which also exercises the slab test (Williams 2005, Ize 2013).
+//  - acne: hemisphere rays leaving surface points found by tracing (the integrator's
+//    situation), and shadow segments between mutually visible points (a surface point
+//    and the point its hemisphere ray reached; pairs of inner points of convex meshes),
+//    spawned with each offset mode of renderer/spawn.h. A false self-hit is a hit on the
+//    source triangle (a planar triangle cannot be hit again by a ray leaving it), any
+//    occlusion of a mutually visible pair, any hit of a ray leaving a convex mesh
+//    outward, or a nearby hit the double-precision reference rejects.
+//  - reference: rays aimed at interior points of triangles (random, grazing 1e-1..1e-6
+//    and axis-parallel directions) compared with a double-precision intersector on the
+//    same float ray: relative error of t and absolute error of the barycentrics, and
+//    "wrong misses" (the reference hits the triangle robustly inside, the backend
+//    reports nothing up to there).
+#pragma once
+
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+#include <tbb/enumerable_thread_specific.h>
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <cstdint>
+#include <cstdio>
+#include <cstdlib>
+#include <map>
+#include <memory>
+#include <string>
+#include <unordered_map>
+#include <vector>
+
+#include "accel/accelerator.h"
+#include "accel/triangle.h"
+#include "renderer/interaction.h"
+#include "renderer/rng.h"
+#include "renderer/sampling.h"
+#include "renderer/spawn.h"
+#include "scenes/load.h"
+
+namespace extremes {
+
+using accel::Vec3d;
+using accel::Vec3f;
+using renderer::OffsetMode;
+
+/// A mesh in double precision, normalised to fit [-0.5, 0.5]^3 around the origin.
+struct UnitMesh {
+    std::string name;
+    std::vector<Vec3d> pos;
+    std::vector<uint32_t> idx;
+    bool convex = false;
+};
+
+/// Geodesic icosphere (closed, convex, consistently wound outward).
+inline UnitMesh make_icosphere(int subdiv) {
+    UnitMesh m;
+    m.name = "icosphere" + std::to_string(subdiv);
+    m.convex = true;
+    const double t = (1.0 + std::sqrt(5.0)) / 2.0;
+    std::vector<Vec3d> v = {{-1, t, 0}, {1, t, 0}, {-1, -t, 0}, {1, -t, 0}, {0, -1, t}, {0, 1, t},
+                            {0, -1, -t}, {0, 1, -t}, {t, 0, -1}, {t, 0, 1}, {-t, 0, -1}, {-t, 0, 1}};
+    std::vector<uint32_t> f = {0, 11, 5, 0, 5, 1, 0, 1, 7, 0, 7, 10, 0, 10, 11, 1, 5, 9, 5, 11, 4,
+                               11, 10, 2, 10, 7, 6, 7, 1, 8, 3, 9, 4, 3, 4, 2, 3, 2, 6, 3, 6, 8,
+                               3, 8, 9, 4, 9, 5, 2, 4, 11, 6, 2, 10, 8, 6, 7, 9, 8, 1};
+    for (Vec3d& p : v) p = p / accel::length(p);
+    for (int s = 0; s < subdiv; ++s) {
+        std::map<std::pair<uint32_t, uint32_t>, uint32_t> mid;
+        auto midpoint = [&](uint32_t a, uint32_t b) {
+            auto key = std::minmax(a, b);
+            auto it = mid.find(key);
+            if (it != mid.end()) return it->second;
+            Vec3d p = (v[a] + v[b]) * 0.5;
+            v.push_back(p / accel::length(p));
+            return mid[key] = uint32_t(v.size() - 1);
+        };
+        std::vector<uint32_t> g;
+        for (size_t i = 0; i < f.size(); i += 3) {
+            uint32_t a = f[i], b = f[i + 1], c = f[i + 2];
+            uint32_t ab = midpoint(a, b), bc = midpoint(b, c), ca = midpoint(c, a);
+            g.insert(g.end(), {a, ab, ca, b, bc, ab, c, ca, bc, ab, bc, ca});
+        }
+        f.swap(g);
+    }
+    for (Vec3d& p : v) p = p * 0.5;
+    m.pos = v;
+    m.idx = f;
+    return m;
+}
+
+/// Cube with each face split into n x n quads (two triangles each), shared vertices,
+/// wound outward: closed, convex, with many coplanar neighbours and axis-aligned faces.
+inline UnitMesh make_cube(int n) {
+    UnitMesh m;
+    m.name = "cube" + std::to_string(n);
+    m.convex = true;
+    std::map<std::array<int, 3>, uint32_t> ids;
+    auto vid = [&](int x, int y, int z) {
+        std::array<int, 3> k{x, y, z};
+        auto it = ids.find(k);
+        if (it != ids.end()) return it->second;
+        m.pos.push_back(Vec3d(double(x) / n - 0.5, double(y) / n - 0.5, double(z) / n - 0.5));
+        return ids[k] = uint32_t(m.pos.size() - 1);
+    };
+    for (int axis = 0; axis < 3; ++axis)
+        for (int side = 0; side < 2; ++side)
+            for (int i = 0; i < n; ++i)
+                for (int j = 0; j < n; ++j) {
+                    auto corner = [&](int a, int b) {
+                        std::array<int, 3> c{};
+                        c[axis] = side * n;
+                        c[(axis + 1) % 3] = a;
+                        c[(axis + 2) % 3] = b;
+                        return vid(c[0], c[1], c[2]);
+                    };
+                    uint32_t q[4] = {corner(i, j), corner(i + 1, j), corner(i + 1, j + 1), corner(i, j + 1)};
+                    // (axis+1, axis+2) is right-handed around +axis: counter-clockwise
+                    // seen from outside on the + side, reversed on the - side.
+                    if (side == 1)
+                        m.idx.insert(m.idx.end(), {q[0], q[1], q[2], q[0], q[2], q[3]});
+                    else
+                        m.idx.insert(m.idx.end(), {q[0], q[2], q[1], q[0], q[3], q[2]});
+                }
+    return m;
+}
+
+/// All meshes of a scene file merged, normalised to the unit box. Throws SceneError.
+inline UnitMesh load_unit_mesh(const std::string& path, const std::string& name) {
+    scenes::Scene s = scenes::load_scene(path);
+    UnitMesh m;
+    m.name = name;
+    for (const scenes::Mesh& mesh : s.meshes) {
+        const uint32_t base = uint32_t(m.pos.size());
+        for (uint32_t i = 0; i < mesh.num_vertices(); ++i) m.pos.push_back(Vec3d(mesh.positions[i]));
+        for (uint32_t k : mesh.indices) m.idx.push_back(base + k);
+    }
+    Vec3d lo(1e300), hi(-1e300);
+    for (const Vec3d& p : m.pos) { lo = accel::vmin(lo, p); hi = accel::vmax(hi, p); }
+    const Vec3d c = (lo + hi) * 0.5;
+    const double ext = accel::max_component(hi - lo);
+    for (Vec3d& p : m.pos) p = (p - c) / ext;
+    return m;
+}
+
+/// One placement in the sweep: p_world = p_unit * scale + offset (computed in double,
+/// rounded once to float, so the float mesh is the best float picture of the shape).
+struct Placement {
+    double scale = 1, offset = 0;
+    std::string label() const {
+        char buf[64];
+        std::snprintf(buf, sizeof buf, "s=%.0e t=%.0e", scale, offset);
+        return buf;
+    }
+};
+/// Translation direction: all three axes non-zero and different.
+inline Vec3d offset_dir() { return Vec3d(1.0, -0.75, 0.5); }
+
+/// The float mesh the backends see, plus adjacency for the leak rays.
+struct World {
+    std::string name;
+    bool convex = false;
+    Placement place;
+    std::vector<Vec3f> pos;  ///< padded by one element (Embree's 16-byte loads)
+    std::vector<uint32_t> idx;
+    uint32_t num_vertices = 0, num_tris = 0;
+    std::vector<uint8_t> degenerate;  ///< per triangle (dropped by the backends)
+    std::vector<Vec3d> unit_normal;   ///< per triangle, from the float vertices, in double
+    /// Interior edges shared by exactly two non-degenerate, consistently wound triangles.
+    struct Edge { uint32_t a, b, t0, t1; };
+    std::vector<Edge> edges;
+    /// Vertices whose whole fan is manifold (every incident edge interior), with the
+    /// fan's triangles.
+    std::vector<uint32_t> vertices;
+    std::vector<std::vector<uint32_t>> fan;
+    Vec3d center;
+    double radius = 1;  ///< of the bounding sphere
+    accel::GeometryView view() const {
+        accel::GeometryView g;
+        g.type = accel::GeometryType::Triangles;
+        g.positions = pos.data();
+        g.num_vertices = num_vertices;
+        g.indices = idx.data();
+        g.num_prims = num_tris;
+        return g;
+    }
+    Vec3f v(uint32_t tri, int k) const { return pos[idx[3 * size_t(tri) + k]]; }
+};
+
+inline World place_mesh(const UnitMesh& m, const Placement& pl) {
+    World w;
+    w.name = m.name;
+    w.convex = m.convex;
+    w.place = pl;
+    const Vec3d off = offset_dir() * pl.offset;
+    for (const Vec3d& p : m.pos) w.pos.push_back(Vec3f(p * pl.scale + off));
+    w.num_vertices = uint32_t(w.pos.size());
+    w.pos.push_back(Vec3f(0.0f));
+    w.idx = m.idx;
+    w.num_tris = uint32_t(w.idx.size() / 3);
+    w.center = off;
+    w.radius = pl.scale * std::sqrt(0.75);
+    w.degenerate.resize(w.num_tris);
+    w.unit_normal.resize(w.num_tris);
+    std::unordered_map<uint64_t, std::vector<uint32_t>> by_edge;  // directed edge -> triangles
+    auto key = [](uint32_t a, uint32_t b) { return (uint64_t(a) << 32) | b; };
+    for (uint32_t t = 0; t < w.num_tris; ++t) {
+        const Vec3f a = w.v(t, 0), b = w.v(t, 1), c = w.v(t, 2);
+        w.degenerate[t] = accel::triangle_is_degenerate(a, b, c);
+        const Vec3d n = accel::cross(Vec3d(b) - Vec3d(a), Vec3d(c) - Vec3d(a));
+        const double ln = accel::length(n);
+        if (!(ln > 0)) w.degenerate[t] = 1;
+        w.unit_normal[t] = ln > 0 ? n / ln : Vec3d(0.0);
+        if (w.degenerate[t]) continue;
+        for (int k = 0; k < 3; ++k) by_edge[key(w.idx[3 * t + k], w.idx[3 * t + (k + 1) % 3])].push_back(t);
+    }
+    std::vector<uint8_t> vertex_ok(w.num_vertices, 1);
+    w.fan.resize(w.num_vertices);
+    for (const auto& [k, tris] : by_edge) {
+        const uint32_t a = uint32_t(k >> 32), b = uint32_t(k);
+        auto rev = by_edge.find(key(b, a));
+        const bool interior = tris.size() == 1 && rev != by_edge.end() && rev->second.size() == 1;
+        if (!interior) {
+            vertex_ok[a] = vertex_ok[b] = 0;
+            continue;
+        }
+        if (a < b) w.edges.push_back({a, b, tris[0], rev->second[0]});
+    }
+    // Degenerate triangles are dropped by the backends: their vertices' fans have holes
+    // in the mesh's connectivity (though not in its coverage); skip such vertices.
+    for (uint32_t t = 0; t < w.num_tris; ++t)
+        for (int k = 0; k < 3; ++k) {
+            const uint32_t vi = w.idx[3 * t + k];
+            if (w.degenerate[t]) vertex_ok[vi] = 0;
+            else w.fan[vi].push_back(t);
+        }
+    for (uint32_t vi = 0; vi < w.num_vertices; ++vi)
+        if (vertex_ok[vi] && w.fan[vi].size() >= 3) w.vertices.push_back(vi);
+    std::sort(w.edges.begin(), w.edges.end(), [](const World::Edge& x, const World::Edge& y) {
+        return x.a != y.a ? x.a < y.a : x.b < y.b;
+    });
+    return w;
+}
+
+/// Double-precision reference: Möller–Trumbore on the float ray and float vertices
+/// promoted to double (rounding ~1e-16 relative, far below float's 6e-8). Returns t and
+/// the barycentrics of v1, v2 of the plane crossing, and whether it is inside (with the
+/// smallest barycentric in `margin`).
+struct RefHit {
+    bool plane = false;  ///< ray not parallel to the plane
+    double t = 0, u = 0, v = 0, margin = 0;
+    bool inside() const { return plane && margin >= 0; }
+};
+inline RefHit ref_intersect(const Vec3d& org, const Vec3d& dir, const Vec3f& fv0, const Vec3f& fv1,
+                            const Vec3f& fv2) {
+    const Vec3d v0(fv0), v1(fv1), v2(fv2);
+    const Vec3d e1 = v1 - v0, e2 = v2 - v0;
+    const Vec3d p = accel::cross(dir, e2);
+    const double det = accel::dot(e1, p);
+    RefHit r;
+    if (det == 0.0 || !std::isfinite(det)) return r;
+    const Vec3d s = org - v0;
+    const Vec3d q = accel::cross(s, e1);
+    r.plane = true;
+    r.u = accel::dot(s, p) / det;
+    r.v = accel::dot(dir, q) / det;
+    r.t = accel::dot(e2, q) / det;
+    r.margin = std::min({r.u, r.v, 1.0 - r.u - r.v});
+    return r;
+}
+
+/// Backends under test, by renderer::parse_backend_spec words.
+struct BackendCase {
+    std::string label;    ///< short column name
+    std::string backend;  ///< custom | embree | naive
+    accel::AccelOptions options;
+};
+inline std::vector<BackendCase> backend_cases(bool with_embree) {
+    std::vector<BackendCase> v;
+    BackendCase c;
+    c.backend = "custom";
+    c.label = "custom-fast";
+    c.options.triangle = accel::TriangleTest::Fast;
+    v.push_back(c);
+    c.label = "custom-watertight";
+    c.options.triangle = accel::TriangleTest::Watertight;
+    v.push_back(c);
+    if (with_embree) {
+        BackendCase e;
+        e.backend = "embree";
+        e.label = "embree";
+        v.push_back(e);
+        e.label = "embree-robust";
+        e.options.embree_robust = true;
+        v.push_back(e);
+    }
+    return v;
+}
+
+/// Label printed by the EXTREMES_DEBUG diagnostics (set by the caller).
+inline std::string g_debug_label;
+
+inline constexpr OffsetMode kModes[] = {OffsetMode::ErrorBound, OffsetMode::Epsilon};
+
+struct Counts {
+    uint64_t leak_rays = 0, leaks = 0;          ///< edge and vertex rays (all directions)
+    uint64_t axis_rays = 0, axis_leaks = 0;     ///< the axis-parallel subset of the above
+    uint64_t hemi_rays[2] = {}, hemi_false[2] = {};      ///< per OffsetMode
+    uint64_t shadow_rays[2] = {}, shadow_false[2] = {};  ///< per OffsetMode
+    uint64_t ref_rays = 0, ref_compared = 0, wrong_miss = 0, grazing_rays = 0;
+    double max_rel_t = 0, max_bary = 0;
+    uint64_t dropped = 0;  ///< degenerate triangles the backend dropped
+
+    void add(const Counts& o) {
+        leak_rays += o.leak_rays; leaks += o.leaks; axis_rays += o.axis_rays; axis_leaks += o.axis_leaks;
+        for (int m = 0; m < 2; ++m) {
+            hemi_rays[m] += o.hemi_rays[m]; hemi_false[m] += o.hemi_false[m];
+            shadow_rays[m] += o.shadow_rays[m]; shadow_false[m] += o.shadow_false[m];
+        }
+        ref_rays += o.ref_rays; ref_compared += o.ref_compared; wrong_miss += o.wrong_miss;
+        grazing_rays += o.grazing_rays;
+        max_rel_t = std::max(max_rel_t, o.max_rel_t);
+        max_bary = std::max(max_bary, o.max_bary);
+        dropped += o.dropped;
+    }
+    uint64_t acne_rays(int m) const { return hemi_rays[m] + shadow_rays[m]; }
+    uint64_t acne_false(int m) const { return hemi_false[m] + shadow_false[m]; }
+};
+
+struct RayBudget {
+    uint64_t leak = 100000;  ///< edge + vertex rays
+    uint64_t acne = 20000;   ///< surface points (each: one hemisphere ray + one shadow segment per mode)
+    uint64_t ref = 20000;    ///< reference-comparison rays
+};
+
+namespace detail {
+
+inline double rnd(renderer::Rng& r) { return double(r.next_u32()) * 0x1p-32 + double(r.next_u32()) * 0x1p-64; }
+
+inline Vec3d rand_dir(renderer::Rng& r) {
+    const double z = 1 - 2 * rnd(r), phi = 2 * M_PI * rnd(r), s = std::sqrt(std::max(0.0, 1 - z * z));
+    return {s * std::cos(phi), s * std::sin(phi), z};
+}
+
+/// A direction from which all `normals` face the ray (dot(d, n) <= -0.02 for each), or
+/// (0,0,0) after a few tries. With probability 1/4 an exact axis direction is tried
+/// first (components +-0), the case the slab test must get right.
+inline Vec3d front_direction(const std::vector<Vec3d>& normals, renderer::Rng& r, bool& axis,
+                             bool allow_axis) {
+    Vec3d avg(0.0);
+    for (const Vec3d& n : normals) avg += n;
+    const double la = accel::length(avg);
+    if (!(la > 0)) return Vec3d(0.0);
+    avg = avg / la;
+    auto ok = [&](const Vec3d& d) {
+        for (const Vec3d& n : normals)
+            if (!(accel::dot(d, n) <= -0.02)) return false;
+        return true;
+    };
+    axis = false;
+    if ((r.next_u32() & 3) == 0 && allow_axis) {
+        const int k = accel::max_dimension(accel::vabs(avg));
+        Vec3d d(0.0);
+        // Signed zeros in the other components: -0 must behave as +0 in the slab test.
+        if (r.next_u32() & 1) d = Vec3d(-0.0);
+        d[k] = avg[k] > 0 ? -1.0 : 1.0;
+        if (ok(d)) {
+            axis = true;
+            return d;
+        }
+    }
+    for (int attempt = 0; attempt < 16; ++attempt) {
+        const double spread = attempt < 8 ? 0.8 : 0.2;
+        Vec3d d = -avg + rand_dir(r) * spread;
+        d = d / accel::length(d);
+        if (ok(d)) return d;
+    }
+    return Vec3d(0.0);
+}
+
+/// Float ray aimed at the exact (double) point `target` from distance L along -d, with
+/// t_at = the ray parameter at the target. General directions: org is rounded once and
+/// dir = target - org is computed in double then rounded, so the ray passes within an
+/// ulp of |dir| of the exact target (a lerped float target would be an ulp of |target|
+/// off an edge, which far from the origin is as large as the triangles). Axis
+/// directions (exactly one non-zero component): only exact float targets (vertices) are
+/// used; org differs from the target in that component only and dir is +-1 with the
+/// requested signed zeros, which is what exercises the slab test.
+inline accel::Ray ray_at(const Vec3d& target, const Vec3d& d, double L, float& t_at) {
+    accel::Ray r;
+    int nonzero = 0, k = 0;
+    for (int i = 0; i < 3; ++i)
+        if (d[i] != 0.0) { ++nonzero; k = i; }
+    if (nonzero == 1) {
+        r.org = Vec3f(target);
+        r.org[k] = float(target[k] - d[k] * L);
+        for (int i = 0; i < 3; ++i) r.dir[i] = float(d[i]);  // keeps -0
+        t_at = std::abs(float(target[k]) - r.org[k]);
+    } else {
+        r.org = Vec3f(target - d * L);
+        // Through memory: keeps the compiler honest about org being rounded to float.
+        volatile float o[3] = {r.org.x, r.org.y, r.org.z};
+        const Vec3d od{double(o[0]), double(o[1]), double(o[2])};
+        r.dir = Vec3f(target - od);
+        t_at = 1.0f;
+    }
+    r.t_min = 0.0f;
+    r.t_max = accel::kInfinity;
+    return r;
+}
+
+inline bool is_convex_side_outside(const World& w, const Vec3f& p, const Vec3f& n) {
+    // On a convex mesh the outward side is the one facing away from the centre.
+    return accel::dot(Vec3d(n), Vec3d(p) - w.center) > 0;
+}
+
+}  // namespace detail
+
+/// Runs every measurement of one backend on one placed mesh. Rays depend only on
+/// (seed, mesh, placement), not on the backend, except the acne rays, which start where
+/// the backend's own primary ray hit (as in a renderer).
+inline Counts measure(const World& w, const accel::Accelerator& acc, const RayBudget& budget, uint64_t seed) {
+    using namespace detail;
+    tbb::enumerable_thread_specific<Counts> local;
+    const double L = 3.0 * w.radius;  // origins well outside the mesh
+    const float scene_scale = float(2.0 * w.radius);
+    const uint64_t chunk = 4096;
+
+    // (a) leaks at edges and vertices.
+    if (!w.edges.empty() || !w.vertices.empty()) {
+        const uint64_t n = budget.leak;
+        tbb::parallel_for(tbb::blocked_range<uint64_t>(0, (n + chunk - 1) / chunk), [&](const auto& range) {
+            Counts& c = local.local();
+            accel::TraceStats st;
+            std::vector<Vec3d> normals;
+            for (uint64_t ci = range.begin(); ci != range.end(); ++ci) {
+                renderer::Rng rng(seed, 0x1EA4000000ull + ci);
+                for (uint64_t i = ci * chunk; i < std::min(n, (ci + 1) * chunk); ++i) {
+                    Vec3d target;
+                    normals.clear();
+                    const bool vertex = w.edges.empty() || (!w.vertices.empty() && (i & 1));
+                    if (vertex) {
+                        const uint32_t vi = w.vertices[rng.next_u32() % w.vertices.size()];
+                        target = Vec3d(w.pos[vi]);
+                        for (uint32_t t : w.fan[vi]) normals.push_back(w.unit_normal[t]);
+                    } else {
+                        const World::Edge& e = w.edges[rng.next_u32() % w.edges.size()];
+                        const Vec3d a(w.pos[e.a]), b(w.pos[e.b]);
+                        target = a + (b - a) * rnd(rng);  // exact point of the edge, in double
+                        normals = {w.unit_normal[e.t0], w.unit_normal[e.t1]};
+                    }
+                    bool axis = false;
+                    const Vec3d d = front_direction(normals, rng, axis, vertex);
+                    if (d == Vec3d(0.0)) continue;
+                    float t_at;
+                    const accel::Ray ray = ray_at(target, d, L, t_at);
+                    accel::Hit h;
+                    // Slack past the target: the rounding of org and dir.
+                    const bool hit = acc.intersect(ray, h, st) && h.t <= t_at * (1.0f + 1e-3f);
+                    ++c.leak_rays;
+                    c.axis_rays += axis;
+                    if (!hit && std::getenv("EXTREMES_DEBUG")) {
+                        std::vector<uint32_t> fan_tris;
+                        if (vertex) {
+                            for (uint32_t vi = 0; vi < w.num_vertices; ++vi)
+                                if (Vec3d(w.pos[vi]) == target) { fan_tris = w.fan[vi]; break; }
+                        }
+                        std::fprintf(stderr, "leak %s %s vertex=%d axis=%d org=(%.9g %.9g %.9g) dir=(%g %g %g) target=(%.12g %.12g %.12g) t_at=%g\n",
+                                     g_debug_label.c_str(), w.name.c_str(), int(vertex), int(axis), ray.org.x, ray.org.y, ray.org.z, ray.dir.x,
+                                     ray.dir.y, ray.dir.z, target.x, target.y, target.z, t_at);
+                        const Vec3d miss = Vec3d(ray.org) + Vec3d(ray.dir) - target;
+                        std::fprintf(stderr, "   miss (%g %g %g) hit=%d t=%g prim=%u\n", miss.x, miss.y, miss.z, int(acc.intersect(ray, h, st)), h.t, h.prim_id);
+                        for (uint32_t t : fan_tris) {
+                            RefHit rh = ref_intersect(Vec3d(ray.org), Vec3d(ray.dir), w.v(t, 0), w.v(t, 1), w.v(t, 2));
+                            std::fprintf(stderr, "   fan tri %u ref t=%.9g margin=%g\n", t, rh.t, rh.margin);
+                        }
+                    }
+                    if (!hit) {
+                        ++c.leaks;
+                        c.axis_leaks += axis;
+                    }
+                }
+            }
+        });
+    }
+
+    // (b) acne.
+    {
+        const uint64_t n = budget.acne;
+        tbb::parallel_for(tbb::blocked_range<uint64_t>(0, (n + chunk - 1) / chunk), [&](const auto& range) {
+            Counts& c = local.local();
+            accel::TraceStats st;
+            for (uint64_t ci = range.begin(); ci != range.end(); ++ci) {
+                renderer::Rng rng(seed, 0xAC4E000000ull + ci);
+                for (uint64_t i = ci * chunk; i < std::min(n, (ci + 1) * chunk); ++i) {
+                    // A primary ray: from outside toward a random surface point, or from
+                    // the centre outward (inner side of closed meshes).
+                    const uint32_t tri = rng.next_u32() % w.num_tris;
+                    if (w.degenerate[tri]) continue;
+                    double a = rnd(rng), b = rnd(rng);
+                    if (a + b > 1) { a = 1 - a; b = 1 - b; }
+                    const Vec3d tp = Vec3d(w.v(tri, 0)) * (1 - a - b) + Vec3d(w.v(tri, 1)) * a + Vec3d(w.v(tri, 2)) * b;
+                    accel::Ray pr;
+                    if (i & 1) {
+                        pr.org = Vec3f(w.center);
+                        pr.dir = Vec3f(tp) - pr.org;
+                    } else {
+                        const Vec3d d = rand_dir(rng);
+                        float t_at;
+                        pr = ray_at(tp, d, L, t_at);
+                    }
+                    if (!accel::is_finite(pr.dir) || pr.dir == Vec3f(0.0f)) continue;
+                    accel::Hit h;
+                    if (!acc.intersect(pr, h, st)) continue;
+                    Vec3f p, perr;
+                    renderer::triangle_point(w.v(h.prim_id, 0), w.v(h.prim_id, 1), w.v(h.prim_id, 2), h.u, h.v,
+                                             p, perr);
+                    const Vec3d pexact = Vec3d(w.v(h.prim_id, 0)) * (1.0 - double(h.u) - double(h.v)) +
+                                         Vec3d(w.v(h.prim_id, 1)) * double(h.u) +
+                                         Vec3d(w.v(h.prim_id, 2)) * double(h.v);
+                    Vec3f ng = Vec3f(w.unit_normal[h.prim_id]);
+                    if (accel::dot(ng, pr.dir) > 0) ng = -ng;  // the side the ray arrived on
+                    const bool outward = w.convex && is_convex_side_outside(w, p, ng);
+                    const Vec3f wi = renderer::to_world(
+                        renderer::cosine_hemisphere(rng.next_float(), rng.next_float()), ng);
+                    if (!(accel::dot(wi, ng) > 0)) continue;
+                    // Second point of the mutually visible pair on convex meshes: any
+                    // other inner point.
+                    Vec3f q, qerr, nq;
+                    bool have_q = false;
+                    if (w.convex && !outward) {
+                        const uint32_t t2 = rng.next_u32() % w.num_tris;
+                        if (!w.degenerate[t2]) {
+                            float a2 = rng.next_float(), b2 = rng.next_float();
+                            if (a2 + b2 > 1) { a2 = 1 - a2; b2 = 1 - b2; }
+                            renderer::triangle_point(w.v(t2, 0), w.v(t2, 1), w.v(t2, 2), a2, b2, q, qerr);
+                            nq = Vec3f(w.unit_normal[t2]);
+                            if (is_convex_side_outside(w, q, nq)) nq = -nq;
+                            have_q = t2 != h.prim_id;
+                        }
+                    }
+                    for (int m = 0; m < 2; ++m) {
+                        const OffsetMode mode = kModes[m];
+                        const accel::Ray ray = renderer::spawn_ray(p, perr, ng, wi, scene_scale, mode);
+                        accel::Hit h2;
+                        ++c.hemi_rays[m];
+                        bool hemi_hit = acc.intersect(ray, h2, st);
+                        bool false_hit = false;
+                        if (hemi_hit) {
+                            if (h2.prim_id == h.prim_id || outward) {
+                                false_hit = true;
+                            } else if (double(h2.t) * accel::length(Vec3d(wi)) < 1e-3 * w.radius) {
+                                // Near the origin: does the exact ray (from the exact point)
+                                // really reach that triangle?
+                                const RefHit rh = ref_intersect(pexact, Vec3d(wi), w.v(h2.prim_id, 0),
+                                                                w.v(h2.prim_id, 1), w.v(h2.prim_id, 2));
+                                false_hit = !(rh.plane && rh.margin > -1e-6 && rh.t > 0);
+                            }
+                        }
+                        c.hemi_false[m] += false_hit;
+                        if (false_hit && m == 0 && std::getenv("EXTREMES_DEBUG"))
+                            std::fprintf(stderr, "hemi-false %s src=%u hit=%u t=%g outward=%d p=(%.9g %.9g %.9g) perr=(%g %g %g) ng=(%g %g %g) org=(%.9g %.9g %.9g) wi=(%g %g %g)\n",
+                                         w.name.c_str(), h.prim_id, h2.prim_id, h2.t, int(outward), p.x, p.y, p.z, perr.x,
+                                         perr.y, perr.z, ng.x, ng.y, ng.z, ray.org.x, ray.org.y, ray.org.z, wi.x, wi.y, wi.z);
+                        // Shadow segment back from where the hemisphere ray landed (a
+                        // mutually visible pair), with the target's normal (surface to
+                        // surface) on even rays and without it (as toward a light) on odd.
+                        if (hemi_hit && !false_hit) {
+                            Vec3f p2, p2err;
+                            renderer::triangle_point(w.v(h2.prim_id, 0), w.v(h2.prim_id, 1), w.v(h2.prim_id, 2),
+                                                     h2.u, h2.v, p2, p2err);
+                            Vec3f n2 = Vec3f(w.unit_normal[h2.prim_id]);
+                            if (accel::dot(n2, wi) > 0) n2 = -n2;
+                            // Without the target's normal (as toward a light sample) only
+                            // where the segment meets the target at a cosine >= 0.1: at
+                            // grazing arrival the back-off along the segment cannot clear
+                            // the target's own surface (and a light's contribution there
+                            // vanishes with the cosine).
+                            const bool light_like = !(i & 2) && std::abs(accel::dot(ng, wi)) >= 0.1f;
+                            const accel::Ray s = renderer::spawn_segment(p2, p2err, n2, p, perr, scene_scale, mode,
+                                                                         light_like ? Vec3f(0.0f) : ng);
+                            ++c.shadow_rays[m];
+                            const bool occ = acc.occluded(s, st);
+                            c.shadow_false[m] += occ;
+                            if (occ && m == 0 && std::getenv("EXTREMES_DEBUG"))
+                                std::fprintf(stderr, "back-false %s light=%d t2=%g cos=%g perr=(%g %g %g) tmin=%g tmax=%g len=%g\n", w.name.c_str(), int(light_like), h2.t,
+                                             accel::dot(ng, wi), perr.x, perr.y, perr.z, s.t_min, s.t_max, accel::length(s.dir));
+                        }
+                        if (have_q) {
+                            const Vec3f pq = q - p;
+                            const bool light_like = !(i & 2) && std::abs(accel::dot(nq, pq)) >= 0.1f * accel::length(pq);
+                            const accel::Ray s = renderer::spawn_segment(p, perr, ng, q, qerr, scene_scale, mode,
+                                                                         light_like ? Vec3f(0.0f) : nq);
+                            ++c.shadow_rays[m];
+                            const bool occ = acc.occluded(s, st);
+                            c.shadow_false[m] += occ;
+                            if (occ && m == 0 && std::getenv("EXTREMES_DEBUG"))
+                                std::fprintf(stderr, "pair-false %s p=(%.9g %.9g %.9g) perr=(%g %g %g) ng=(%g %g %g) q=(%.9g %.9g %.9g) nq=(%g %g %g) light=%d org=(%.9g %.9g %.9g) tmax=%g\n",
+                                             w.name.c_str(), p.x, p.y, p.z, perr.x, perr.y, perr.z, ng.x, ng.y, ng.z,
+                                             q.x, q.y, q.z, nq.x, nq.y, nq.z, int(light_like), s.org.x, s.org.y, s.org.z, s.t_max);
+                        }
+                    }
+                }
+            }
+        });
+    }
+
+    // (c, d) reference comparison: random, grazing and axis-parallel rays at interior
+    // points of triangles.
+    {
+        const uint64_t n = budget.ref;
+        tbb::parallel_for(tbb::blocked_range<uint64_t>(0, (n + chunk - 1) / chunk), [&](const auto& range) {
+            Counts& c = local.local();
+            accel::TraceStats st;
+            for (uint64_t ci = range.begin(); ci != range.end(); ++ci) {
+                renderer::Rng rng(seed, 0x4EF0000000ull + ci);
+                for (uint64_t i = ci * chunk; i < std::min(n, (ci + 1) * chunk); ++i) {
+                    const uint32_t tri = rng.next_u32() % w.num_tris;
+                    if (w.degenerate[tri]) continue;
+                    // Uniform in the triangle, shrunk toward the centroid: every
+                    // barycentric >= 0.05.
+                    double a = rnd(rng), b = rnd(rng);
+                    if (a + b > 1) { a = 1 - a; b = 1 - b; }
+                    a = 1.0 / 3 + 0.85 * (a - 1.0 / 3);
+                    b = 1.0 / 3 + 0.85 * (b - 1.0 / 3);
+                    const Vec3d tp = Vec3d(w.v(tri, 0)) * (1 - a - b) + Vec3d(w.v(tri, 1)) * a + Vec3d(w.v(tri, 2)) * b;
+                    const Vec3d n = w.unit_normal[tri];
+                    Vec3d d;
+                    const uint32_t kind = i % 3;
+                    if (kind == 0) {
+                        d = rand_dir(rng);
+                    } else if (kind == 1) {
+                        // Grazing: tilt 1e-1 .. 1e-6 out of the plane.
+                        Vec3d t = accel::cross(n, std::abs(n.x) > 0.5 ? Vec3d(0, 1, 0) : Vec3d(1, 0, 0));
+                        t = t / accel::length(t);
+                        const Vec3d bt = accel::cross(n, t);
+                        const double phi = 2 * M_PI * rnd(rng), tilt = std::pow(10.0, -1.0 - 5.0 * rnd(rng));
+                        d = t * std::cos(phi) + bt * std::sin(phi) + n * ((rng.next_u32() & 1) ? tilt : -tilt);
+                        d = d / accel::length(d);
+                        ++c.grazing_rays;
+                    } else {
+                        d = Vec3d(0.0);
+                        const int k = int(rng.next_u32() % 3);
+                        d[k] = (rng.next_u32() & 1) ? 1.0 : -1.0;
+                    }
+                    float t_at;
+                    const accel::Ray ray = ray_at(tp, d, L, t_at);
+                    const RefHit ref = ref_intersect(Vec3d(ray.org), Vec3d(ray.dir), w.v(tri, 0), w.v(tri, 1),
+                                                     w.v(tri, 2));
+                    // Only rays the reference places robustly inside the triangle.
+                    if (!(ref.plane && ref.margin > 1e-4 && ref.t > 0)) continue;
+                    ++c.ref_rays;
+                    accel::Hit h;
+                    const bool hit = acc.intersect(ray, h, st);
+                    if (!hit || double(h.t) > ref.t * (1 + 1e-4)) {
+                        ++c.wrong_miss;
+                        continue;
+                    }
+                    if (h.prim_id != tri) continue;  // something in front: fine, not comparable
+                    ++c.ref_compared;
+                    c.max_rel_t = std::max(c.max_rel_t, std::abs(double(h.t) - ref.t) / ref.t);
+                    c.max_bary = std::max({c.max_bary, std::abs(double(h.u) - ref.u), std::abs(double(h.v) - ref.v)});
+                }
+            }
+        });
+    }
+
+    Counts total;
+    for (const Counts& c : local) total.add(c);
+    total.dropped = acc.info().dropped;
+    return total;
+}
+
+}  // namespace extremes
