@@ -34,6 +34,31 @@ check bad-accel 2 "--accel" -- "$PT" --accel=octree "$SRC/scenes/cornell.dae"
 check bad-cell 2 "-p" -- "$PT" -r 10 10 -p 20 0 5 5 "$SRC/scenes/cornell.dae"
 check no-scene 2 "scene" -- "$PT"
 
+# Every bad-input class: exit status 2 and a message naming the file (and the element).
+mkdir -p "$TMP/bad"
+dae_head='<?xml version="1.0"?><COLLADA xmlns="http://www.collada.org/2005/11/COLLADASchema" version="1.4.1"><asset><up_axis>Z_UP</up_axis></asset>'
+scene_tail='<library_visual_scenes><visual_scene id="s"><node id="n"><instance_geometry url="#g"/></node></visual_scene></library_visual_scenes><scene><instance_visual_scene url="#s"/></scene></COLLADA>'
+geom() {  # geom POSITIONS COUNT P
+  echo "<library_geometries><geometry id=\"g\"><mesh><source id=\"p\"><float_array id=\"pa\" count=\"$2\">$1</float_array><technique_common><accessor source=\"#pa\" count=\"$(( $2 / 3 ))\" stride=\"3\"/></technique_common></source><vertices id=\"v\"><input semantic=\"POSITION\" source=\"#p\"/></vertices><triangles count=\"1\"><input semantic=\"VERTEX\" source=\"#v\" offset=\"0\"/><p>$3</p></triangles></mesh></geometry></library_geometries>"
+}
+echo "$dae_head$(geom '0 0 0 1 0 0 0 1 0' 9 '0 1 7')$scene_tail" > "$TMP/bad/index.dae"
+echo "$dae_head$(geom '0 0 0 1 nan 0 0 1 0' 9 '0 1 2')$scene_tail" > "$TMP/bad/nan.dae"
+echo "$dae_head$(geom '0 0 0 1 0 0 0 1 0' 9 '0 1 2' | sed 's/#v/#nowhere/')$scene_tail" > "$TMP/bad/dangling.dae"
+echo "$dae_head$(geom '0 0 0 1 0 0 0 1 0' 4000000000 '0 1 2')$scene_tail" > "$TMP/bad/huge.dae"
+echo "$dae_head<library_visual_scenes><visual_scene id=\"s\"/></library_visual_scenes><scene><instance_visual_scene url=\"#s\"/></scene></COLLADA>" > "$TMP/bad/empty.dae"
+check bad-dae-index 2 "index.dae.*(index|range)" -- "$PT" "$TMP/bad/index.dae"
+check bad-dae-nan 2 "nan.dae" -- "$PT" "$TMP/bad/nan.dae"
+check bad-dae-dangling 2 "dangling.dae.*nowhere" -- "$PT" "$TMP/bad/dangling.dae"
+check bad-dae-huge-count 2 "huge.dae" -- "$PT" "$TMP/bad/huge.dae"
+check bad-dae-empty 2 "empty.dae" -- "$PT" "$TMP/bad/empty.dae"
+echo '{"asset": {"version": "2.0"}, "nodes": [' > "$TMP/bad/malformed.gltf"
+check bad-gltf-json 2 "malformed.gltf" -- "$PT" "$TMP/bad/malformed.gltf"
+echo '{"asset":{"version":"2.0"},"extensionsRequired":["KHR_draco_mesh_compression"],"extensionsUsed":["KHR_draco_mesh_compression"]}' > "$TMP/bad/draco.gltf"
+check bad-gltf-draco 2 "draco.gltf.*KHR_draco_mesh_compression" -- "$PT" "$TMP/bad/draco.gltf"
+echo '{"asset":{"version":"2.0"},"buffers":[{"uri":"missing.bin","byteLength":36}],"bufferViews":[{"buffer":0,"byteLength":36}],"accessors":[{"bufferView":0,"componentType":5126,"count":3,"type":"VEC3"}],"meshes":[{"primitives":[{"attributes":{"POSITION":0}}]}],"nodes":[{"mesh":0}],"scenes":[{"nodes":[0]}]}' > "$TMP/bad/nobin.gltf"
+check bad-gltf-missing-buffer 2 "nobin.gltf.*missing.bin" -- "$PT" "$TMP/bad/nobin.gltf"
+printf 'glTF\x02\x00\x00\x00\xff\x00\x00\x00' > "$TMP/bad/truncated.glb"
+check bad-glb-truncated 2 "truncated.glb" -- "$PT" "$TMP/bad/truncated.glb"
 # A good render writes the file, says where, and leaves no temporary file behind.
 check render-normals 0 "Wrote $TMP/c.png" -- "$PT" --integrator=normals -r 64 48 -f "$TMP/c.png" "$SRC/scenes/cornell.dae"
 [ -s "$TMP/c.png" ] || { echo "FAIL render-normals wrote no image"; fails=$((fails+1)); }
