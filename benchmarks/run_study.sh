@@ -27,7 +27,7 @@ if [[ $STAGE == all || $STAGE == accel ]]; then
   [[ -f $GEN/sphere-5m.glb ]] || "$BUILD/tools/scenegen" --kind sphere -n 5000000 --seed 1 -o "$GEN/sphere-5m.glb"
   [[ -f $GEN/field-1m.glb ]] || "$BUILD/tools/scenegen" --kind field -n 1000000 --seed 1 -o "$GEN/field-1m.glb"
   [[ -f $GEN/sliver-1m.glb ]] || "$BUILD/tools/scenegen" --kind sliver -n 1000000 --seed 1 -o "$GEN/sliver-1m.glb"
-  "$BUILD/benchmarks/accel_bench" --repeats "$REPEATS" --csv "$OUT/accel.csv" \
+  "$BUILD/benchmarks/accel_bench" --repeats "$REPEATS" --build-repeats 3 --csv "$OUT/accel.csv" \
     --scene "$ROOT/scenes/cornell.dae" --scene "$SHARED/cow.dae" --scene "$SHARED/CBbunny.dae" \
     --scene "$SHARED/maxplanck.dae" --scene "$GEN/sphere-5m.glb" --scene "$GEN/field-1m.glb" \
     --scene "$GEN/sliver-1m.glb" | tee "$OUT/accel.txt"

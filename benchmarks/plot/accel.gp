@@ -3,6 +3,7 @@
 csv = ARG1; out = ARG2
 set terminal pngcairo size 1400,700 font ",10"
 set output out
+set termoption noenhanced  # scene names contain underscores
 set datafile separator ","
 set style data histograms
 set style histogram clustered gap 1

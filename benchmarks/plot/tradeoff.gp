@@ -4,6 +4,7 @@
 csv = ARG1; scene = ARG2; col = int(ARG3); out = ARG4; what = ARG5
 set terminal pngcairo size 1500,950 font ",10"
 set output out
+set termoption noenhanced  # scene names contain underscores
 set datafile separator ","
 set logscale xy
 set grid
@@ -21,7 +22,7 @@ plot sel("spp") using 12:(y(col)) with linespoints pt 7 title "light sampling", 
      sel("spp") using 12:(y(col)):(sprintf("%d", $5)) with labels offset 0,0.8 font ",7" notitle
 set title "samples per light at 4 spp (l = 1..64) vs more spp"
 plot sel("spp") using 12:(y(col)) with linespoints pt 7 lc rgb "#aaaaaa" title "l = 1, spp 1..1024", \
-     sel("light_samples") using 12:(y(col)) with linespoints pt 5 title "spp 4, l = N", \
+     sel("light_samples") using 12:(y(col)) with linespoints pt 5 title "spp 4 l=N", \
      sel("light_samples") using 12:(y(col)):(sprintf("l=%d", $6)) with labels offset 0,0.8 font ",7" notitle
 set title "Russian roulette continuation probability (16 spp)"
 plot sel("spp") using 12:(y(col)) with linespoints pt 7 lc rgb "#aaaaaa" title "rr 0.65, spp 1..1024", \
