@@ -57,6 +57,9 @@ echo '{"asset":{"version":"2.0"},"extensionsRequired":["KHR_draco_mesh_compressi
 check bad-gltf-draco 2 "draco.gltf.*KHR_draco_mesh_compression" -- "$PT" "$TMP/bad/draco.gltf"
 echo '{"asset":{"version":"2.0"},"buffers":[{"uri":"missing.bin","byteLength":36}],"bufferViews":[{"buffer":0,"byteLength":36}],"accessors":[{"bufferView":0,"componentType":5126,"count":3,"type":"VEC3"}],"meshes":[{"primitives":[{"attributes":{"POSITION":0}}]}],"nodes":[{"mesh":0}],"scenes":[{"nodes":[0]}]}' > "$TMP/bad/nobin.gltf"
 check bad-gltf-missing-buffer 2 "nobin.gltf.*missing.bin" -- "$PT" "$TMP/bad/nobin.gltf"
+# A base-colour texture the renderer needs but cannot find: an error naming the image.
+echo '{"asset":{"version":"2.0"},"buffers":[{"uri":"data:application/octet-stream;base64,AAAAAAAAAAAAAAAAAACAPwAAAAAAAAAAAAAAAAAAgD8AAAAA","byteLength":36}],"bufferViews":[{"buffer":0,"byteLength":36}],"accessors":[{"bufferView":0,"componentType":5126,"count":3,"type":"VEC3","min":[0,0,0],"max":[1,1,0]}],"images":[{"uri":"gone.png"}],"textures":[{"source":0}],"materials":[{"pbrMetallicRoughness":{"baseColorTexture":{"index":0}}}],"meshes":[{"primitives":[{"attributes":{"POSITION":0},"material":0}]}],"nodes":[{"mesh":0}],"scenes":[{"nodes":[0]}]}' > "$TMP/bad/notex.gltf"
+check bad-gltf-missing-texture 2 "notex.gltf.*gone.png" -- "$PT" "$TMP/bad/notex.gltf"
 printf 'glTF\x02\x00\x00\x00\xff\x00\x00\x00' > "$TMP/bad/truncated.glb"
 check bad-glb-truncated 2 "truncated.glb" -- "$PT" "$TMP/bad/truncated.glb"
 # A good render writes the file, says where, and leaves no temporary file behind.
