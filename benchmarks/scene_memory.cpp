@@ -9,6 +9,7 @@
 #include <filesystem>
 
 #include "scenes/load.h"
+#include "tools/cli.h"
 
 int main(int argc, char** argv) {
     CLI::App app{"Scene memory per triangle after loading."};
@@ -16,7 +17,7 @@ int main(int argc, char** argv) {
     bool quick = false;
     app.add_option("scenes", paths, "Scene files (default: our scenes and the shared corpus)");
     app.add_flag("--quick", quick, "Smoke run: the project's own scenes only");
-    CLI11_PARSE(app, argc, argv);
+    tools::parse_or_exit(app, argc, argv, "scene_memory");
     namespace fs = std::filesystem;
     if (paths.empty()) {
         const fs::path src(PT_SOURCE_DIR_BENCH);
@@ -33,13 +34,7 @@ int main(int argc, char** argv) {
                 "tex", "mats", "bytes", "bytes/tri", "load ms");
     for (const std::string& p : paths) {
         const auto t0 = std::chrono::steady_clock::now();
-        scenes::Scene s;
-        try {
-            s = scenes::load_scene(p);
-        } catch (const scenes::SceneError& e) {
-            std::fprintf(stderr, "scene_memory: error: %s\n", e.what());
-            return 2;
-        }
+        const scenes::Scene s = tools::load_scene_or_exit(p, "scene_memory");
         const double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
         size_t with_n = 0, with_uv = 0;
         for (const auto& m : s.meshes) {

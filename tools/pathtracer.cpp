@@ -19,17 +19,14 @@
 #include "renderer/render.h"
 #include "renderer/scene_geometry.h"
 #include "scenes/load.h"
+#include "tools/cli.h"
 
 namespace {
 
 std::atomic<bool> g_cancel{false};
 extern "C" void on_sigint(int) { g_cancel.store(true); }
 
-/// Bad input or options: one line on stderr, exit status 2.
-[[noreturn]] void fail(const std::string& message) {
-    std::fprintf(stderr, "pathtracer: error: %s\n", message.c_str());
-    std::exit(2);
-}
+[[noreturn]] void fail(const std::string& message) { tools::fail("pathtracer", message); }
 
 std::string default_output(const std::string& scene) {
     return std::filesystem::path(scene).stem().string() + ".png";
@@ -113,13 +110,7 @@ int main(int argc, char** argv) {
                  "(NAME_nodes.png, NAME_tests.png), from the backend that did the work");
     app.add_flag("-q,--quiet", quiet, "No progress lines");
 
-    try {
-        app.parse(argc, argv);
-    } catch (const CLI::CallForHelp& e) {
-        return app.exit(e);
-    } catch (const CLI::ParseError& e) {
-        fail(e.what());
-    }
+    tools::parse_or_exit(app, argc, argv, "pathtracer");
 
     if (!resolution.empty()) {
         if (resolution[0] < 1 || resolution[1] < 1 || resolution[0] > 65536 || resolution[1] > 65536)

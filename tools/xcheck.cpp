@@ -13,13 +13,11 @@
 #include "renderer/scene_geometry.h"
 #include "renderer/xcheck.h"
 #include "scenes/load.h"
+#include "tools/cli.h"
 
 namespace {
 
-[[noreturn]] void fail(const std::string& message) {
-    std::fprintf(stderr, "xcheck: error: %s\n", message.c_str());
-    std::exit(2);
-}
+[[noreturn]] void fail(const std::string& message) { tools::fail("xcheck", message); }
 
 /// Hex floats: a dumped ray replays bit for bit.
 std::string ray_line(renderer::RayKind kind, const accel::Ray& r) {
@@ -88,20 +86,8 @@ int main(int argc, char** argv) {
     app.add_option("--dump", dump_path, "Write the disagreeing rays to FILE (replayable)");
     app.add_option("--replay", replay_path, "Trace the rays of FILE (from --dump) instead of generating rays")
         ->check(CLI::ExistingFile);
-    try {
-        app.parse(argc, argv);
-    } catch (const CLI::CallForHelp& e) {
-        return app.exit(e);
-    } catch (const CLI::ParseError& e) {
-        fail(e.what());
-    }
-
-    scenes::Scene scene;
-    try {
-        scene = scenes::load_scene(scene_path);
-    } catch (const scenes::SceneError& e) {
-        fail(e.what());
-    }
+    tools::parse_or_exit(app, argc, argv, "xcheck");
+    const scenes::Scene scene = tools::load_scene_or_exit(scene_path, "xcheck");
     const uint64_t tris = scene.num_triangles();
     if (tris == 0 && scene.spheres.empty()) fail(scene_path + ": the scene has no geometry");
     const bool small = tris <= 10000;
