@@ -281,8 +281,8 @@ int main(int argc, char** argv) {
                "samples,rel_rmse,rel_rmse_shadow,rel_rmse_debiased,rel_rmse_shadow_debiased,ref_floor,"
                "ref_floor_shadow,build_ms\n";
     }
-    std::printf("%-22s %-13s %-22s %6s %9s %10s %9s %9s %9s\n", "scene", "study", "label", "spp", "seconds",
-                "samples", "rel_rmse", "shadow", "debiased");
+    std::printf("%-22s %-13s %-22s %7s %6s %9s %10s %9s %9s %9s\n", "scene", "study", "label", "param", "spp",
+                "seconds", "samples", "rel_rmse", "shadow", "debiased");
 
     for (const std::string& path : scene_paths) {
         World w;
@@ -374,7 +374,7 @@ int main(int argc, char** argv) {
             }
         if (wants("light_samples"))
             for (int l : quick ? std::vector<int>{1, 4} : std::vector<int>{1, 2, 4, 8, 16, 32, 64}) {
-                Config c{"light_samples", "spp 4, l = N", double(l), base, 4};
+                Config c{"light_samples", "spp 4 l=N", double(l), base, 4};
                 c.is.light_samples = l;
                 add(c);
             }
@@ -433,8 +433,8 @@ int main(int argc, char** argv) {
             std::sort(times.begin(), times.end());
             const double secs = times[times.size() / 2];
             const Errors e = errors(r.image, ref);
-            std::printf("%-22s %-13s %-22s %6d %9.3f %10llu %9.5f %9.5f %9.5f\n", name.c_str(), c.study.c_str(),
-                        c.label.c_str(), c.spp, secs, (unsigned long long)r.samples, e.image, e.shadow, e.image_db);
+            std::printf("%-22s %-13s %-22s %7g %6d %9.3f %10llu %9.5f %9.5f %9.5f\n", name.c_str(), c.study.c_str(),
+                        c.label.c_str(), c.param, c.spp, secs, (unsigned long long)r.samples, e.image, e.shadow, e.image_db);
             std::fflush(stdout);
             if (csv)
                 csv << fmt::format("{},{},{},{},{},{},{},{:.3f},{},{},{},{:.5f},{},{:.6f},{:.6f},{:.6f},{:.6f},{:.6f},{:.6f},{:.2f}\n",
