@@ -220,23 +220,48 @@ int main(int argc, char** argv) {
             renderer::RaySetOptions ro;
             ro.count = rays;
             const renderer::RaySet set = renderer::make_ray_set(kind, scene, gen, ro);
+            // Every (threads, backend) cell is timed once per round, rounds repeated: a
+            // shared machine's load drifts over minutes, and interleaving spreads that drift
+            // over all cells instead of biasing whichever was measured during a busy spell.
+            struct Cell {
+                int threads;
+                size_t backend;
+                std::vector<double> rates;
+                double wall = 0, cpu = 0;
+                accel::TraceStats stats;
+            };
+            std::vector<Cell> cells;
+            for (int threads : thread_counts)
+                for (size_t i = 0; i < accels.size(); ++i)
+                    // Naive only for the single-threaded camera rays: enough to show its cost.
+                    if (specs[i].backend != "naive" || (threads == 1 && kind == renderer::RayKind::Camera))
+                        cells.push_back({threads, i, {}, 0, 0, {}});
+            std::fprintf(stderr, "[accel_bench] %s %s rays: %zu cells x %d rounds\n", name.c_str(),
+                         renderer::ray_kind_name(kind), cells.size(), repeats);
+            for (int round = 0; round < std::max(1, repeats); ++round)
+                for (Cell& c : cells) {
+                    if (specs[c.backend].backend == "naive" && round > 0) continue;  // minutes per trace
+                    accel::TraceStats st;
+                    double util = 0;
+                    const double mr = measure(*accels[c.backend], set, c.threads, 1, st, util);
+                    c.rates.push_back(mr);
+                    const double wall = double(set.rays.size()) / (mr * 1e6);
+                    c.wall += wall;
+                    c.cpu += util * wall;
+                    if (round == 0) c.stats = st;
+                }
             for (int threads : thread_counts) {
                 std::map<std::string, double> rate;
                 size_t first = rows.size();
-                for (size_t i = 0; i < accels.size(); ++i) {
-                    // Naive only for the single-threaded camera rays: enough to show its cost.
-                    if (specs[i].backend == "naive" && (threads != 1 || kind != renderer::RayKind::Camera))
-                        continue;
-                    std::fprintf(stderr, "[accel_bench] %s %s rays, %d thread(s), %s\n", name.c_str(),
-                                 renderer::ray_kind_name(kind), threads, specs[i].label.c_str());
-                    accel::TraceStats st;
-                    double util = 0;
-                    const double mr = measure(*accels[i], set, threads,
-                                              specs[i].backend == "naive" ? 1 : repeats, st, util);
+                for (Cell& c : cells) {
+                    if (c.threads != threads) continue;
+                    std::sort(c.rates.begin(), c.rates.end());
+                    const double mr = c.rates[c.rates.size() / 2];
+                    const size_t i = c.backend;
                     const auto& info = accels[i]->info();
                     rows.push_back({name, tris, specs[i].label, renderer::ray_kind_name(kind), threads, mr, 0,
-                                    st.tests_per_ray(), st.nodes_per_ray(), build_ms[i], info.bytes,
-                                    info.counts_prims, info.counts_nodes, util});
+                                    c.stats.tests_per_ray(), c.stats.nodes_per_ray(), build_ms[i], info.bytes,
+                                    info.counts_prims, info.counts_nodes, c.cpu / std::max(c.wall, 1e-9)});
                     rate[specs[i].label] = mr;
                 }
                 const double ref = rate.count("embree:high") ? rate["embree:high"] : 0.0;

@@ -6,8 +6,9 @@
 #
 # Environment: BUILD (build dir, default build-bench), PT_SHARED_SCENES (default
 # ../shared/scenes), REPEATS (accel_bench timed repeats, default 5).
-# Takes ~10-15 minutes on 2 cores when the machine is otherwise idle (tradeoff ~6-8 min
-# including the two 4096-spp references, which are then cached; accel_bench ~4-6 min).
+# Takes ~25 minutes on 2 cores when the machine is otherwise idle: accel_bench ~7 min,
+# tradeoff ~15 min with 3 repeats (+2.5 min the first time for the two 4096-spp
+# references, which are then cached in results/reference/).
 set -euo pipefail
 HERE=$(cd "$(dirname "$0")" && pwd)
 ROOT=$(cd "$HERE/.." && pwd)
@@ -26,15 +27,20 @@ if [[ $STAGE == all || $STAGE == accel ]]; then
   GEN=$BUILD/generated; mkdir -p "$GEN"
   [[ -f $GEN/sphere-5m.glb ]] || "$BUILD/tools/scenegen" --kind sphere -n 5000000 --seed 1 -o "$GEN/sphere-5m.glb"
   [[ -f $GEN/field-1m.glb ]] || "$BUILD/tools/scenegen" --kind field -n 1000000 --seed 1 -o "$GEN/field-1m.glb"
-  [[ -f $GEN/sliver-1m.glb ]] || "$BUILD/tools/scenegen" --kind sliver -n 1000000 --seed 1 -o "$GEN/sliver-1m.glb"
+  [[ -f $GEN/sliver-200k.glb ]] || "$BUILD/tools/scenegen" --kind sliver -n 200000 --seed 1 -o "$GEN/sliver-200k.glb"
   "$BUILD/benchmarks/accel_bench" --repeats "$REPEATS" --build-repeats 3 --csv "$OUT/accel.csv" \
     --scene "$ROOT/scenes/cornell.dae" --scene "$SHARED/cow.dae" --scene "$SHARED/CBbunny.dae" \
-    --scene "$SHARED/maxplanck.dae" --scene "$GEN/sphere-5m.glb" --scene "$GEN/field-1m.glb" \
-    --scene "$GEN/sliver-1m.glb" | tee "$OUT/accel.txt"
+    --scene "$SHARED/maxplanck.dae" --scene "$GEN/sphere-5m.glb" | tee "$OUT/accel.txt"
+  # The pathological meshes, without embree:high:count (counting through our
+  # intersector is minutes on 1000:1 slivers and adds nothing to the comparison).
+  "$BUILD/benchmarks/accel_bench" --repeats 3 --no-course --csv "$OUT/accel_generated.csv" \
+    --backends custom:midpoint,custom:sah,embree:high --rays 100000 \
+    --scene "$GEN/field-1m.glb" --scene "$GEN/sliver-200k.glb" | tee "$OUT/accel_generated.txt"
 fi
 
 if [[ $STAGE == all || $STAGE == tradeoff ]]; then
-  "$BUILD/benchmarks/tradeoff" --csv "$OUT/tradeoff.csv" --ref-dir "$OUT/reference" \
+  # Three renders per setting, median time: the machine is shared and drifts.
+  "$BUILD/benchmarks/tradeoff" --repeats 3 --csv "$OUT/tradeoff.csv" --ref-dir "$OUT/reference" \
     --scene "$SHARED/CBspheres_lambertian.dae" --scene "$SHARED/CBbunny.dae" | tee "$OUT/tradeoff.txt"
 fi
 
@@ -50,6 +56,11 @@ if [[ $STAGE == all || $STAGE == plots ]]; then
       gnuplot -c "$HERE/plot/adaptive.gp" "$OUT/tradeoff.csv" "$sc" "$OUT/adaptive_${sc}.png"
     done
   fi
-  [[ -f $OUT/accel.csv ]] && gnuplot -c "$HERE/plot/accel.gp" "$OUT/accel.csv" "$OUT/accel_ratio.png"
+  if [[ -f $OUT/accel.csv ]]; then
+    gnuplot -c "$HERE/plot/accel.gp" "$OUT/accel.csv" "$OUT/accel_ratio.png"
+    python3 "$HERE/plot/tables.py" accel "$OUT/accel.csv" > "$OUT/accel_table.md"
+    [[ -f $OUT/accel_generated.csv ]] && python3 "$HERE/plot/tables.py" accel "$OUT/accel_generated.csv" >> "$OUT/accel_table.md"
+  fi
+  [[ -f $OUT/tradeoff.csv ]] && python3 "$HERE/plot/tables.py" tradeoff "$OUT/tradeoff.csv" > "$OUT/tradeoff_table.md"
   echo "plots in $OUT"
 fi
