@@ -13,6 +13,8 @@ set grid ytics
 set yrange [0:*]
 set ylabel "Mrays/s relative to Embree high (1.0 = same)"
 set xtics rotate by -35 font ",8"
+set bmargin 7
+set rmargin 8
 set key outside top center horizontal
 # One row per (scene, ray kind, threads): columns midpoint, SAH ratios, via awk pivot.
 pivot = sprintf("< awk -F, 'NR>1 { k=$1\" \"$4\" \"$5\"t\"; if (!(k in seen)) { seen[k]=1; order[++n]=k } r[k,$3]=$7 } END { for (i=1;i<=n;i++) { k=order[i]; printf \"\\\"%%s\\\",%%s,%%s\\n\", k, (r[k,\"custom:midpoint:fast\"]==\"\"?0:r[k,\"custom:midpoint:fast\"]), (r[k,\"custom:sah:fast\"]==\"\"?0:r[k,\"custom:sah:fast\"]) } }' %s", csv)
