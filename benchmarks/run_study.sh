@@ -6,8 +6,8 @@
 #
 # Environment: BUILD (build dir, default build-bench), PT_SHARED_SCENES (default
 # ../shared/scenes), REPEATS (accel_bench timed repeats, default 5).
-# Takes ~25 minutes on 2 cores when the machine is otherwise idle: accel_bench ~7 min,
-# tradeoff ~15 min with 3 repeats (+2.5 min the first time for the two 4096-spp
+# Takes ~10 minutes on 2 cores when the machine is otherwise idle: accel_bench ~5 min,
+# tradeoff ~5 min with 3 repeats (+2.5 min the first time for the two 4096-spp
 # references, which are then cached in results/reference/).
 set -euo pipefail
 HERE=$(cd "$(dirname "$0")" && pwd)
