@@ -78,3 +78,49 @@ TEST(Scenegen, RejectsUnknownKindAndTinyCounts) {
     EXPECT_THROW(scenegen::generate("teapot", 1000, 1), std::invalid_argument);
     EXPECT_THROW(scenegen::generate("sphere", 3, 1), std::invalid_argument);
 }
+
+namespace {
+
+/// Smallest and largest triangle area and the largest edge-length ratio (longest edge over
+/// the height on it) over the loaded scene: the properties each kind exists to provide.
+struct Shape {
+    double min_area = 1e300, max_area = 0, max_aspect = 0;
+};
+
+Shape shape_of(const scenes::Scene& scene) {
+    Shape s;
+    for (const auto& m : scene.meshes)
+        for (uint32_t t = 0; t < m.num_triangles(); ++t) {
+            const accel::Vec3f a = m.positions[m.indices[3 * t]], b = m.positions[m.indices[3 * t + 1]],
+                               c = m.positions[m.indices[3 * t + 2]];
+            const double area = 0.5 * double(accel::length(accel::cross(b - a, c - a)));
+            const double longest =
+                std::max({double(accel::length(b - a)), double(accel::length(c - b)), double(accel::length(a - c))});
+            s.min_area = std::min(s.min_area, area);
+            s.max_area = std::max(s.max_area, area);
+            if (area > 0) s.max_aspect = std::max(s.max_aspect, longest * longest / (2.0 * area));
+        }
+    return s;
+}
+
+scenes::Scene load_generated(const std::string& kind, uint64_t n) {
+    const std::string path = temp_path(kind + "_shape.glb");
+    scenegen::write_glb(path, scenegen::generate(kind, n, 5));
+    scenes::Scene scene = scenes::load_scene(path);
+    std::filesystem::remove(path);
+    return scene;
+}
+
+}  // namespace
+
+// The field exists to have very uneven triangle sizes, the sliver mesh needle-thin
+// triangles, the sphere even ones: check each kind delivers what it is benchmarked for.
+TEST(Scenegen, KindsHaveTheTriangleShapesTheyArePromised) {
+    const Shape field = shape_of(load_generated("field", 20000));
+    EXPECT_GT(field.max_area / field.min_area, 1e6);  // 100 m ground vs centimetre rock facets
+    const Shape sliver = shape_of(load_generated("sliver", 20000));
+    EXPECT_GT(sliver.max_aspect, 300.0);  // ~1000:1 needles
+    const Shape sphere = shape_of(load_generated("sphere", 20000));
+    EXPECT_LT(sphere.max_area / sphere.min_area, 20.0);  // cube-map cells vary ~3x, displacement a bit more
+    EXPECT_LT(sphere.max_aspect, 20.0);
+}
