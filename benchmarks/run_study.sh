@@ -27,6 +27,7 @@ if [[ $STAGE == all || $STAGE == accel ]]; then
   GEN=$BUILD/generated; mkdir -p "$GEN"
   [[ -f $GEN/sphere-5m.glb ]] || "$BUILD/tools/scenegen" --kind sphere -n 5000000 --seed 1 -o "$GEN/sphere-5m.glb"
   [[ -f $GEN/field-1m.glb ]] || "$BUILD/tools/scenegen" --kind field -n 1000000 --seed 1 -o "$GEN/field-1m.glb"
+  [[ -f $GEN/terrain-1m.glb ]] || "$BUILD/tools/scenegen" --kind terrain -n 1000000 --seed 1 -o "$GEN/terrain-1m.glb"
   [[ -f $GEN/sliver-200k.glb ]] || "$BUILD/tools/scenegen" --kind sliver -n 200000 --seed 1 -o "$GEN/sliver-200k.glb"
   "$BUILD/benchmarks/accel_bench" --repeats "$REPEATS" --build-repeats 3 --csv "$OUT/accel.csv" \
     --scene "$ROOT/scenes/cornell.dae" --scene "$SHARED/cow.dae" --scene "$SHARED/CBbunny.dae" \
@@ -44,7 +45,7 @@ if [[ $STAGE == all || $STAGE == accel ]]; then
   # intersector is minutes on 1000:1 slivers and adds nothing to the comparison).
   "$BUILD/benchmarks/accel_bench" --repeats 3 --no-course --csv "$OUT/accel_generated.csv" \
     --backends custom:midpoint,custom:sah,embree:high --rays 100000 \
-    --scene "$GEN/field-1m.glb" --scene "$GEN/sliver-200k.glb" | tee "$OUT/accel_generated.txt"
+    --scene "$GEN/field-1m.glb" --scene "$GEN/terrain-1m.glb" --scene "$GEN/sliver-200k.glb" | tee "$OUT/accel_generated.txt"
 fi
 
 if [[ $STAGE == all || $STAGE == tradeoff ]]; then
