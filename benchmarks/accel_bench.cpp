@@ -23,15 +23,13 @@
 #include "renderer/scene_geometry.h"
 #include "renderer/xcheck.h"
 #include "scenes/load.h"
+#include "tools/cli.h"
 
 namespace {
 
 using Clock = std::chrono::steady_clock;
 
-[[noreturn]] void fail(const std::string& m) {
-    std::fprintf(stderr, "accel_bench: error: %s\n", m.c_str());
-    std::exit(2);
-}
+[[noreturn]] void fail(const std::string& m) { tools::fail("accel_bench", m); }
 
 struct Row {
     std::string scene;
@@ -121,13 +119,7 @@ int main(int argc, char** argv) {
     app.add_option("--threads", thread_counts, "Thread counts (default: 1 and all cores)");
     app.add_flag("--quick", quick, "Smoke run: 5000 rays, 1 repeat, default scene only unless --scene");
     app.add_flag("--no-course", no_course, "Skip the course's with/without-BVH comparison on cow");
-    try {
-        app.parse(argc, argv);
-    } catch (const CLI::CallForHelp& e) {
-        return app.exit(e);
-    } catch (const CLI::ParseError& e) {
-        fail(e.what());
-    }
+    tools::parse_or_exit(app, argc, argv, "accel_bench");
     if (quick) {
         rays = std::min<size_t>(rays, 5000);
         repeats = 1;

@@ -16,6 +16,7 @@
 #include <fstream>
 
 #include "benchmarks/extremes.h"
+#include "tools/cli.h"
 
 using namespace extremes;
 
@@ -49,7 +50,7 @@ int main(int argc, char** argv) {
     app.add_option("--scenes", scenes_dir, "Folder with cow.dae, teapot.dae, bunny.dae");
     app.add_option("--csv", csv, "CSV output (one row per placement, mesh and backend)");
     app.add_option("--seed", seed, "Random seed");
-    CLI11_PARSE(app, argc, argv);
+    tools::parse_or_exit(app, argc, argv, "extremes");
     if (quick) rays = 20000;
     if (acne == 0) acne = std::max<uint64_t>(1, rays / 5);
     if (ref == 0) ref = std::max<uint64_t>(1, rays / 10);

@@ -44,16 +44,14 @@
 #include "renderer/scene_geometry.h"
 #include "renderer/spawn.h"
 #include "scenes/load.h"
+#include "tools/cli.h"
 
 namespace {
 
 using Clock = std::chrono::steady_clock;
 using renderer::IntegratorSettings;
 
-[[noreturn]] void fail(const std::string& m) {
-    std::fprintf(stderr, "tradeoff: error: %s\n", m.c_str());
-    std::exit(2);
-}
+[[noreturn]] void fail(const std::string& m) { tools::fail("tradeoff", m); }
 
 float luminance(const float* p) { return 0.2126f * p[0] + 0.7152f * p[1] + 0.0722f * p[2]; }
 
@@ -239,13 +237,7 @@ int main(int argc, char** argv) {
     app.add_option("--threads", threads, "Render threads (default 0 = all cores)");
     app.add_option("--repeats", repeats, "Renders per configuration; the median time is kept (default 1)");
     app.add_flag("--quick", quick, "Smoke run: the default scene at 32x24, reference 64 spp (not cached), few points");
-    try {
-        app.parse(argc, argv);
-    } catch (const CLI::CallForHelp& e) {
-        return app.exit(e);
-    } catch (const CLI::ParseError& e) {
-        fail(e.what());
-    }
+    tools::parse_or_exit(app, argc, argv, "tradeoff");
     if (quick) {
         width = 32;
         height = 24;
