@@ -85,6 +85,25 @@ struct CallContext {
 };
 static_assert(std::is_standard_layout_v<CallContext>);
 
+/// Our ray as Embree's: t range, full mask, no motion blur. Shared by intersect/occluded.
+void to_rtc_ray(const Ray& ray, RTCRay& r) {
+    r.org_x = ray.org.x; r.org_y = ray.org.y; r.org_z = ray.org.z;
+    r.dir_x = ray.dir.x; r.dir_y = ray.dir.y; r.dir_z = ray.dir.z;
+    r.tnear = ray.t_min;
+    r.tfar = ray.t_max;
+    r.time = 0.0f;
+    r.mask = 0xFFFFFFFFu;
+    r.id = 0;
+    r.flags = 0;
+}
+
+/// A fresh context carrying the per-ray data our callbacks need.
+void init_context(CallContext& ctx, const RayContext& rc) {
+    rtcInitIntersectContext(&ctx.rtc);
+    ctx.rc = &rc;
+    ctx.tests = 0;
+}
+
 /// What a user geometry's callbacks need. `prims` maps Embree's primID (an index into
 /// the primitives we kept) to the primitive index in the view; null = identity.
 struct UserGeom {
@@ -249,18 +268,9 @@ public:
         ++stats.rays;
         RayContext rc(ray, test_);
         CallContext ctx;
-        rtcInitIntersectContext(&ctx.rtc);
-        ctx.rc = &rc;
-        ctx.tests = 0;
+        init_context(ctx, rc);
         RTCRayHit rh;
-        rh.ray.org_x = ray.org.x; rh.ray.org_y = ray.org.y; rh.ray.org_z = ray.org.z;
-        rh.ray.dir_x = ray.dir.x; rh.ray.dir_y = ray.dir.y; rh.ray.dir_z = ray.dir.z;
-        rh.ray.tnear = ray.t_min;
-        rh.ray.tfar = ray.t_max;
-        rh.ray.time = 0.0f;
-        rh.ray.mask = 0xFFFFFFFFu;
-        rh.ray.id = 0;
-        rh.ray.flags = 0;
+        to_rtc_ray(ray, rh.ray);
         rh.hit.geomID = RTC_INVALID_GEOMETRY_ID;
         rh.hit.primID = RTC_INVALID_GEOMETRY_ID;
         rh.hit.instID[0] = RTC_INVALID_GEOMETRY_ID;
@@ -289,18 +299,9 @@ public:
         ++stats.shadow_rays;
         RayContext rc(ray, test_);
         CallContext ctx;
-        rtcInitIntersectContext(&ctx.rtc);
-        ctx.rc = &rc;
-        ctx.tests = 0;
+        init_context(ctx, rc);
         RTCRay r;
-        r.org_x = ray.org.x; r.org_y = ray.org.y; r.org_z = ray.org.z;
-        r.dir_x = ray.dir.x; r.dir_y = ray.dir.y; r.dir_z = ray.dir.z;
-        r.tnear = ray.t_min;
-        r.tfar = ray.t_max;
-        r.time = 0.0f;
-        r.mask = 0xFFFFFFFFu;
-        r.id = 0;
-        r.flags = 0;
+        to_rtc_ray(ray, r);
         rtcOccluded1(scene_, &ctx.rtc, &r);
         if (counting_) stats.prim_tests += ctx.tests;
         return r.tfar == -std::numeric_limits<float>::infinity();
