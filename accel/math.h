@@ -150,13 +150,6 @@ struct Mat4f {
                 m[1][0] * v.x + m[1][1] * v.y + m[1][2] * v.z,
                 m[2][0] * v.x + m[2][1] * v.y + m[2][2] * v.z};
     }
-    /// Normals transform by the inverse transpose of the upper 3x3.
-    Vec3f transform_normal(const Vec3f& n) const {
-        Mat4f inv = inverse();
-        return {inv.m[0][0] * n.x + inv.m[1][0] * n.y + inv.m[2][0] * n.z,
-                inv.m[0][1] * n.x + inv.m[1][1] * n.y + inv.m[2][1] * n.z,
-                inv.m[0][2] * n.x + inv.m[1][2] * n.y + inv.m[2][2] * n.z};
-    }
     /// General 4x4 inverse in double precision (cofactor expansion). A singular matrix
     /// returns all-NaN, which callers detect with is_finite().
     Mat4f inverse() const {
