@@ -14,15 +14,23 @@
 //  - acne: hemisphere rays leaving surface points found by tracing (the integrator's
 //    situation), and shadow segments between mutually visible points (a surface point
 //    and the point its hemisphere ray reached; pairs of inner points of convex meshes),
-//    spawned with each offset mode of renderer/spawn.h. A false self-hit is a hit on the
-//    source triangle (a planar triangle cannot be hit again by a ray leaving it), any
-//    occlusion of a mutually visible pair, any hit of a ray leaving a convex mesh
-//    outward, or a nearby hit the double-precision reference rejects.
+//    spawned with each offset mode of renderer/spawn.h. Every hit is judged against the
+//    exact points (the same barycentrics evaluated in double) and classed as
+//      false: the ray hit its own surface (own triangle or a coplanar one in the same
+//        plane), left a convex mesh outward and hit it, or found a triangle the exact
+//        ray misses near its origin, or an occluder lies farther from the exact segment
+//        than the endpoints' rounding allows;
+//      ambiguous: the hit surface passes within rounding (error box plus offset) of an
+//        endpoint, and the exact geometry disagrees with float there; these are
+//        counted and printed, never folded into "clear";
+//      clear: no hit, or a hit the exact geometry confirms.
 //  - reference: rays aimed at interior points of triangles (random, grazing 1e-1..1e-6
 //    and axis-parallel directions) compared with a double-precision intersector on the
-//    same float ray: relative error of t and absolute error of the barycentrics, and
-//    "wrong misses" (the reference hits the triangle robustly inside, the backend
-//    reports nothing up to there).
+//    same float ray. Only rays float can decide are kept: edge functions beyond twice
+//    pbrt-v4's bound on their rounding (ref_bound). Reported: relative error of t (and
+//    of the barycentrics) for the well-conditioned and the grazing rays, |dt| as a
+//    fraction of pbrt-v4's bound on t's error, and "wrong misses" (a decidable ray the
+//    backend missed, or passed through to something farther).
 #pragma once
 
 #include <tbb/blocked_range.h>
@@ -279,6 +287,57 @@ inline RefHit ref_intersect(const Vec3d& org, const Vec3d& dir, const Vec3f& fv0
     return r;
 }
 
+/// Rounding-error yardsticks of a float ray-triangle test, evaluated in double for the
+/// float ray and vertices: pbrt-v4's bounds for the watertight test (Pharr, Jakob,
+/// Humphreys, "Physically Based Rendering" 4th ed., 6.8.4-6.8.6; the same algorithm as
+/// Woop et al. 2013 and our TriangleTest::Watertight). delta_e bounds the error of each
+/// edge function, delta_t the error of t. A ray whose three edge functions share a sign
+/// and each exceed 2 delta_e is decidably inside: any float intersector worth the name
+/// must report the hit. Grazing rays have small edge functions (the projected triangle
+/// is thin) and mostly fall outside this set, which is the honest answer: float cannot
+/// decide them.
+struct RefBound {
+    bool decidable_inside = false;
+    double delta_t = 0;  ///< bound on |t_float - t_exact|
+};
+inline RefBound ref_bound(const Vec3d& org, const Vec3d& dir, const Vec3f& fv0, const Vec3f& fv1,
+                          const Vec3f& fv2) {
+    RefBound rb;
+    const int kz = accel::max_dimension(accel::vabs(dir));
+    int kx = kz + 1 == 3 ? 0 : kz + 1, ky = kx + 1 == 3 ? 0 : kx + 1;
+    if (dir[kz] < 0) std::swap(kx, ky);
+    const double sx = dir[kx] / dir[kz], sy = dir[ky] / dir[kz], sz = 1.0 / dir[kz];
+    Vec3d pt[3];
+    const Vec3d v[3] = {Vec3d(fv0), Vec3d(fv1), Vec3d(fv2)};
+    double max_x = 0, max_y = 0, max_z = 0, max_az = 0;
+    for (int i = 0; i < 3; ++i) {
+        const Vec3d a = v[i] - org;
+        pt[i] = Vec3d(a[kx] - sx * a[kz], a[ky] - sy * a[kz], a[kz] * sz);
+        max_x = std::max(max_x, std::abs(pt[i].x));
+        max_y = std::max(max_y, std::abs(pt[i].y));
+        max_z = std::max(max_z, std::abs(pt[i].z));
+        max_az = std::max(max_az, std::abs(a[kz]));
+    }
+    const double e0 = pt[2].x * pt[1].y - pt[2].y * pt[1].x;  // U (opposite v0)
+    const double e1 = pt[0].x * pt[2].y - pt[0].y * pt[2].x;  // V
+    const double e2 = pt[1].x * pt[0].y - pt[1].y * pt[0].x;  // W
+    const double det = e0 + e1 + e2;
+    if (det == 0.0 || !std::isfinite(det)) return rb;
+    auto g = [](int n) { return double(renderer::gamma_bound(n)); };
+    // The shear x' = a_x - s_x a_z rounds relative to the unscaled |a_z| (|s_x| <= 1).
+    // pbrt-v4 writes gamma(5) (max|x'| + max|z'|) with the scaled z' = a_z / d_z, which
+    // is the same for unit directions but too small for long unnormalised ones (our
+    // shadow segments and these rays, |d| up to 1e7): measured here as decidable rays
+    // every float intersector missed.
+    const double dx = g(5) * (max_x + max_az), dy = g(5) * (max_y + max_az), dz = g(3) * max_z;
+    const double delta_e = 2 * (g(2) * max_x * max_y + dy * max_x + dx * max_y);
+    const double max_e = std::max({std::abs(e0), std::abs(e1), std::abs(e2)});
+    rb.delta_t = 3 * (g(3) * max_e * max_z + delta_e * max_z + dz * max_e) / std::abs(det);
+    const double lo = std::min({e0, e1, e2}), hi = std::max({e0, e1, e2});
+    rb.decidable_inside = lo > 2 * delta_e || hi < -2 * delta_e;
+    return rb;
+}
+
 /// Backends under test, by renderer::parse_backend_spec words.
 struct BackendCase {
     std::string label;    ///< short column name
@@ -315,26 +374,36 @@ inline constexpr OffsetMode kModes[] = {OffsetMode::ErrorBound, OffsetMode::Epsi
 struct Counts {
     uint64_t leak_rays = 0, leaks = 0;          ///< edge and vertex rays (all directions)
     uint64_t axis_rays = 0, axis_leaks = 0;     ///< the axis-parallel subset of the above
+    uint64_t vertex_rays = 0, vertex_leaks = 0; ///< the subset aimed at vertices
     uint64_t hemi_rays[2] = {}, hemi_false[2] = {};      ///< per OffsetMode
     uint64_t shadow_rays[2] = {}, shadow_false[2] = {};  ///< per OffsetMode
+    /// Hits decided below the endpoints' rounding (detail::touches_box), per OffsetMode.
+    uint64_t hemi_ambiguous[2] = {}, shadow_ambiguous[2] = {};
     uint64_t ref_rays = 0, ref_compared = 0, wrong_miss = 0, grazing_rays = 0;
-    double max_rel_t = 0, max_bary = 0;
+    double max_rel_t = 0, max_bary = 0;  ///< random and axis-parallel rays
+    double max_rel_t_grazing = 0;        ///< grazing rays (t is ill-conditioned there)
+    double max_t_over_bound = 0;         ///< max |t - t_ref| / pbrt-v4's delta_t, all rays
     uint64_t dropped = 0;  ///< degenerate triangles the backend dropped
 
     void add(const Counts& o) {
         leak_rays += o.leak_rays; leaks += o.leaks; axis_rays += o.axis_rays; axis_leaks += o.axis_leaks;
+        vertex_rays += o.vertex_rays; vertex_leaks += o.vertex_leaks;
         for (int m = 0; m < 2; ++m) {
             hemi_rays[m] += o.hemi_rays[m]; hemi_false[m] += o.hemi_false[m];
             shadow_rays[m] += o.shadow_rays[m]; shadow_false[m] += o.shadow_false[m];
+            hemi_ambiguous[m] += o.hemi_ambiguous[m]; shadow_ambiguous[m] += o.shadow_ambiguous[m];
         }
         ref_rays += o.ref_rays; ref_compared += o.ref_compared; wrong_miss += o.wrong_miss;
         grazing_rays += o.grazing_rays;
         max_rel_t = std::max(max_rel_t, o.max_rel_t);
         max_bary = std::max(max_bary, o.max_bary);
+        max_rel_t_grazing = std::max(max_rel_t_grazing, o.max_rel_t_grazing);
+        max_t_over_bound = std::max(max_t_over_bound, o.max_t_over_bound);
         dropped += o.dropped;
     }
     uint64_t acne_rays(int m) const { return hemi_rays[m] + shadow_rays[m]; }
     uint64_t acne_false(int m) const { return hemi_false[m] + shadow_false[m]; }
+    uint64_t acne_ambiguous(int m) const { return hemi_ambiguous[m] + shadow_ambiguous[m]; }
 };
 
 struct RayBudget {
@@ -424,6 +493,113 @@ inline bool is_convex_side_outside(const World& w, const Vec3f& p, const Vec3f& 
     return accel::dot(Vec3d(n), Vec3d(p) - w.center) > 0;
 }
 
+/// A surface point as a renderer has it (computed p, error box err), the exact point it
+/// stands for (the same barycentrics evaluated in double), and its triangle.
+struct Endpoint {
+    Vec3f p, err;
+    Vec3d exact;
+    uint32_t tri;
+};
+
+inline Endpoint make_endpoint(const World& w, uint32_t tri, float u, float v) {
+    Endpoint e;
+    e.tri = tri;
+    renderer::triangle_point(w.v(tri, 0), w.v(tri, 1), w.v(tri, 2), u, v, e.p, e.err);
+    e.exact = Vec3d(w.v(tri, 0)) * (1.0 - double(u) - double(v)) + Vec3d(w.v(tri, 1)) * double(u) +
+              Vec3d(w.v(tri, 2)) * double(v);
+    return e;
+}
+
+/// How far a spawned ray's start (or a segment's end) may stray from the exact endpoint:
+/// the error box (|err|_1) plus the offset that clears it (at most |err|_1 again).
+inline double reach(const Endpoint& e) { return 2.0 * (double(e.err.x) + double(e.err.y) + double(e.err.z)); }
+
+enum class Verdict : uint8_t { Clear, Ambiguous, False };
+
+/// Triangle t lies in e's own plane: e's triangle itself, or a coplanar one whose plane
+/// passes within reach of e. Hitting it is the failure the offsets exist to prevent.
+inline bool own_surface(const World& w, uint32_t t, const Endpoint& e) {
+    if (e.tri == accel::kInvalidId) return false;
+    if (t == e.tri) return true;
+    const Vec3d n = w.unit_normal[t];
+    if (std::abs(accel::dot(n, w.unit_normal[e.tri])) <= 1.0 - 1e-9) return false;
+    // Same plane, not merely parallel (a box's opposite faces): the exact point lies in
+    // t's plane up to the rounding of the vertices, far inside e's error box.
+    return std::abs(accel::dot(e.exact - Vec3d(w.v(t, 0)), n)) <= accel::dot(accel::vabs(n), Vec3d(e.err));
+}
+
+/// True when the plane of t (not e's own surface) passes within reach of e: e lies
+/// within rounding of t's surface (an edge or corner between non-coplanar faces, or a
+/// place where another surface crosses e's), and whether a ray leaving e crosses t
+/// there is decided by digits the floats do not have.
+inline bool touches_box(const World& w, uint32_t t, const Endpoint& e) {
+    if (e.tri == accel::kInvalidId || own_surface(w, t, e)) return false;
+    const Vec3d n = w.unit_normal[t];
+    return std::abs(accel::dot(Vec3d(e.p) - Vec3d(w.v(t, 0)), n)) <= reach(e);
+}
+
+/// Distance from x to the segment [a, b] (double).
+inline double point_segment_distance(const Vec3d& x, const Vec3d& a, const Vec3d& b) {
+    const Vec3d ab = b - a;
+    const double l2 = accel::dot(ab, ab);
+    const double s = l2 > 0 ? std::clamp(accel::dot(x - a, ab) / l2, 0.0, 1.0) : 0.0;
+    return accel::length(x - (a + ab * s));
+}
+
+/// Occlusion of a segment the renderer spawned between endpoints a and b:
+///  - False when an occluder is an endpoint's own surface (acne proper) the other
+///    endpoint is not within rounding of, or lies
+///    farther from the exact segment (a.exact to b.exact) than the rounding of the
+///    endpoints allows: the float segment stays within (1-t) reach(a) + t reach(b) of
+///    the exact one, so an occluder beyond twice that means the bounds or offsets are
+///    wrong;
+///  - Ambiguous when every occluder is a surface within reach of an endpoint
+///    (touches_box) or within that rounding tube around the exact segment: the exact
+///    geometry passes within rounding of it, and where the mesh's features are as small
+///    as the error boxes (the CS184 meshes far from the origin) float cannot say;
+///  - Clear otherwise.
+inline Verdict classify_segment(const World& w, const accel::Accelerator& acc, accel::Ray sg, const Endpoint& a,
+                                const Endpoint& b, accel::TraceStats& st) {
+    if (!acc.occluded(sg, st)) return Verdict::Clear;
+    for (int k = 0; k < 16; ++k) {
+        accel::Hit ho;
+        if (!acc.intersect(sg, ho, st)) return k == 0 ? Verdict::False : Verdict::Ambiguous;
+        const uint32_t o = ho.prim_id;
+        const bool own = own_surface(w, o, a) || own_surface(w, o, b);
+        if (!own) {
+            // The exact segment between the exact points is blocked too: the pair was
+            // not mutually visible after all (a hemisphere ray's landing point on a
+            // non-convex mesh), and the occlusion is right.
+            const RefHit rh = ref_intersect(a.exact, b.exact - a.exact, w.v(o, 0), w.v(o, 1), w.v(o, 2));
+            if (rh.plane && rh.margin >= 0 && rh.t > 0 && rh.t < 1) return Verdict::Clear;
+        }
+        const bool touches = touches_box(w, o, a) || touches_box(w, o, b);
+        // An endpoint's own surface is a false hit unless the other endpoint also lies
+        // within rounding of that plane: then the whole segment runs inside the plane's
+        // rounding band (two points near a shared edge of nearly coplanar faces).
+        bool is_false = own && !touches;
+        if (!own && !touches) {
+            const double t = double(ho.t);
+            const Vec3d x = Vec3d(sg.org) + Vec3d(sg.dir) * t;
+            const double tube = 2.0 * ((1.0 - t) * reach(a) + t * reach(b));
+            is_false = point_segment_distance(x, a.exact, b.exact) > tube;
+            if (is_false && std::getenv("EXTREMES_DEBUG"))
+                std::fprintf(stderr, "tube %g dist %g x=(%.9g %.9g %.9g) a=(%.9g %.9g %.9g) b=(%.9g %.9g %.9g) org=(%.9g %.9g %.9g) end=(%.9g %.9g %.9g)\n", tube,
+                             point_segment_distance(x, a.exact, b.exact), x.x, x.y, x.z, a.exact.x, a.exact.y, a.exact.z, b.exact.x, b.exact.y, b.exact.z,
+                             sg.org.x, sg.org.y, sg.org.z, sg.org.x + sg.dir.x, sg.org.y + sg.dir.y, sg.org.z + sg.dir.z);
+        }
+        if (is_false) {
+            if (std::getenv("EXTREMES_DEBUG") && sg.t_min > 0.0f)
+                std::fprintf(stderr, "segment-false %s %s a.tri=%u b.tri=%u occ=%u t=%g tmin=%g tmax=%g len=%g reach=%g\n",
+                             g_debug_label.c_str(), w.name.c_str(), a.tri, b.tri, o, ho.t, sg.t_min, sg.t_max,
+                             accel::length(sg.dir), reach(a));
+            return Verdict::False;
+        }
+        sg.t_min = renderer::next_float_up(ho.t);
+    }
+    return Verdict::Ambiguous;
+}
+
 }  // namespace detail
 
 /// Runs every measurement of one backend on one placed mesh. Rays depend only on
@@ -469,6 +645,7 @@ inline Counts measure(const World& w, const accel::Accelerator& acc, const RayBu
                     const bool hit = acc.intersect(ray, h, st) && h.t <= t_at * (1.0f + 1e-3f);
                     ++c.leak_rays;
                     c.axis_rays += axis;
+                    c.vertex_rays += vertex;
                     if (!hit && std::getenv("EXTREMES_DEBUG")) {
                         std::vector<uint32_t> fan_tris;
                         if (vertex) {
@@ -488,6 +665,7 @@ inline Counts measure(const World& w, const accel::Accelerator& acc, const RayBu
                     if (!hit) {
                         ++c.leaks;
                         c.axis_leaks += axis;
+                        c.vertex_leaks += vertex;
                     }
                 }
             }
@@ -522,12 +700,8 @@ inline Counts measure(const World& w, const accel::Accelerator& acc, const RayBu
                     if (!accel::is_finite(pr.dir) || pr.dir == Vec3f(0.0f)) continue;
                     accel::Hit h;
                     if (!acc.intersect(pr, h, st)) continue;
-                    Vec3f p, perr;
-                    renderer::triangle_point(w.v(h.prim_id, 0), w.v(h.prim_id, 1), w.v(h.prim_id, 2), h.u, h.v,
-                                             p, perr);
-                    const Vec3d pexact = Vec3d(w.v(h.prim_id, 0)) * (1.0 - double(h.u) - double(h.v)) +
-                                         Vec3d(w.v(h.prim_id, 1)) * double(h.u) +
-                                         Vec3d(w.v(h.prim_id, 2)) * double(h.v);
+                    const Endpoint ep = make_endpoint(w, h.prim_id, h.u, h.v);
+                    const Vec3f p = ep.p, perr = ep.err;
                     Vec3f ng = Vec3f(w.unit_normal[h.prim_id]);
                     if (accel::dot(ng, pr.dir) > 0) ng = -ng;  // the side the ray arrived on
                     const bool outward = w.convex && is_convex_side_outside(w, p, ng);
@@ -536,16 +710,17 @@ inline Counts measure(const World& w, const accel::Accelerator& acc, const RayBu
                     if (!(accel::dot(wi, ng) > 0)) continue;
                     // Second point of the mutually visible pair on convex meshes: any
                     // other inner point.
-                    Vec3f q, qerr, nq;
+                    Endpoint eq{};
+                    Vec3f nq;
                     bool have_q = false;
                     if (w.convex && !outward) {
                         const uint32_t t2 = rng.next_u32() % w.num_tris;
                         if (!w.degenerate[t2]) {
                             float a2 = rng.next_float(), b2 = rng.next_float();
                             if (a2 + b2 > 1) { a2 = 1 - a2; b2 = 1 - b2; }
-                            renderer::triangle_point(w.v(t2, 0), w.v(t2, 1), w.v(t2, 2), a2, b2, q, qerr);
+                            eq = make_endpoint(w, t2, a2, b2);
                             nq = Vec3f(w.unit_normal[t2]);
-                            if (is_convex_side_outside(w, q, nq)) nq = -nq;
+                            if (is_convex_side_outside(w, eq.p, nq)) nq = -nq;
                             have_q = t2 != h.prim_id;
                         }
                     }
@@ -554,31 +729,40 @@ inline Counts measure(const World& w, const accel::Accelerator& acc, const RayBu
                         const accel::Ray ray = renderer::spawn_ray(p, perr, ng, wi, scene_scale, mode);
                         accel::Hit h2;
                         ++c.hemi_rays[m];
-                        bool hemi_hit = acc.intersect(ray, h2, st);
-                        bool false_hit = false;
+                        const bool hemi_hit = acc.intersect(ray, h2, st);
+                        Verdict hv = Verdict::Clear;
                         if (hemi_hit) {
-                            if (h2.prim_id == h.prim_id || outward) {
-                                false_hit = true;
+                            const RefHit rx = ref_intersect(ep.exact, Vec3d(wi), w.v(h2.prim_id, 0),
+                                                            w.v(h2.prim_id, 1), w.v(h2.prim_id, 2));
+                            if (own_surface(w, h2.prim_id, ep)) {
+                                hv = Verdict::False;
+                            } else if (rx.plane && rx.margin >= 0 && rx.t > 0) {
+                                // The exact ray from the exact point hits it too.
+                            } else if (touches_box(w, h2.prim_id, ep)) {
+                                // A neighbour whose plane passes within reach of p (p sits
+                                // within rounding of an edge): from some point of p's
+                                // box the exact ray hits it too.
+                                hv = Verdict::Ambiguous;
+                            } else if (outward) {
+                                hv = Verdict::False;  // left a convex mesh, yet hit it
                             } else if (double(h2.t) * accel::length(Vec3d(wi)) < 1e-3 * w.radius) {
-                                // Near the origin: does the exact ray (from the exact point)
-                                // really reach that triangle?
-                                const RefHit rh = ref_intersect(pexact, Vec3d(wi), w.v(h2.prim_id, 0),
-                                                                w.v(h2.prim_id, 1), w.v(h2.prim_id, 2));
-                                false_hit = !(rh.plane && rh.margin > -1e-6 && rh.t > 0);
+                                // Near the origin, and the exact ray misses the triangle by
+                                // more than a hair: the float ray found a surface that is
+                                // not there.
+                                if (!(rx.plane && rx.margin > -1e-6 && rx.t > 0)) hv = Verdict::False;
                             }
                         }
-                        c.hemi_false[m] += false_hit;
-                        if (false_hit && m == 0 && std::getenv("EXTREMES_DEBUG"))
-                            std::fprintf(stderr, "hemi-false %s src=%u hit=%u t=%g outward=%d p=(%.9g %.9g %.9g) perr=(%g %g %g) ng=(%g %g %g) org=(%.9g %.9g %.9g) wi=(%g %g %g)\n",
-                                         w.name.c_str(), h.prim_id, h2.prim_id, h2.t, int(outward), p.x, p.y, p.z, perr.x,
-                                         perr.y, perr.z, ng.x, ng.y, ng.z, ray.org.x, ray.org.y, ray.org.z, wi.x, wi.y, wi.z);
+                        c.hemi_false[m] += hv == Verdict::False;
+                        c.hemi_ambiguous[m] += hv == Verdict::Ambiguous;
+                        if (hv == Verdict::False && m == 0 && std::getenv("EXTREMES_DEBUG"))
+                            std::fprintf(stderr, "hemi-false %s %s src=%u hit=%u t=%g outward=%d p=(%.9g %.9g %.9g) perr=(%g %g %g) ng=(%g %g %g) wi=(%g %g %g)\n",
+                                         g_debug_label.c_str(), w.name.c_str(), h.prim_id, h2.prim_id, h2.t, int(outward), p.x, p.y, p.z,
+                                         perr.x, perr.y, perr.z, ng.x, ng.y, ng.z, wi.x, wi.y, wi.z);
                         // Shadow segment back from where the hemisphere ray landed (a
                         // mutually visible pair), with the target's normal (surface to
-                        // surface) on even rays and without it (as toward a light) on odd.
-                        if (hemi_hit && !false_hit) {
-                            Vec3f p2, p2err;
-                            renderer::triangle_point(w.v(h2.prim_id, 0), w.v(h2.prim_id, 1), w.v(h2.prim_id, 2),
-                                                     h2.u, h2.v, p2, p2err);
+                        // surface) on some rays and without it (as toward a light) on others.
+                        if (hemi_hit && hv == Verdict::Clear) {
+                            const Endpoint e2 = make_endpoint(w, h2.prim_id, h2.u, h2.v);
                             Vec3f n2 = Vec3f(w.unit_normal[h2.prim_id]);
                             if (accel::dot(n2, wi) > 0) n2 = -n2;
                             // Without the target's normal (as toward a light sample) only
@@ -587,27 +771,22 @@ inline Counts measure(const World& w, const accel::Accelerator& acc, const RayBu
                             // the target's own surface (and a light's contribution there
                             // vanishes with the cosine).
                             const bool light_like = !(i & 2) && std::abs(accel::dot(ng, wi)) >= 0.1f;
-                            const accel::Ray s = renderer::spawn_segment(p2, p2err, n2, p, perr, scene_scale, mode,
-                                                                         light_like ? Vec3f(0.0f) : ng);
+                            const accel::Ray sg = renderer::spawn_segment(e2.p, e2.err, n2, p, perr, scene_scale, mode,
+                                                                          light_like ? Vec3f(0.0f) : ng);
                             ++c.shadow_rays[m];
-                            const bool occ = acc.occluded(s, st);
-                            c.shadow_false[m] += occ;
-                            if (occ && m == 0 && std::getenv("EXTREMES_DEBUG"))
-                                std::fprintf(stderr, "back-false %s light=%d t2=%g cos=%g perr=(%g %g %g) tmin=%g tmax=%g len=%g\n", w.name.c_str(), int(light_like), h2.t,
-                                             accel::dot(ng, wi), perr.x, perr.y, perr.z, s.t_min, s.t_max, accel::length(s.dir));
+                            const Verdict v = classify_segment(w, acc, sg, e2, ep, st);
+                            c.shadow_false[m] += v == Verdict::False;
+                            c.shadow_ambiguous[m] += v == Verdict::Ambiguous;
                         }
                         if (have_q) {
-                            const Vec3f pq = q - p;
+                            const Vec3f pq = eq.p - p;
                             const bool light_like = !(i & 2) && std::abs(accel::dot(nq, pq)) >= 0.1f * accel::length(pq);
-                            const accel::Ray s = renderer::spawn_segment(p, perr, ng, q, qerr, scene_scale, mode,
-                                                                         light_like ? Vec3f(0.0f) : nq);
+                            const accel::Ray sg = renderer::spawn_segment(p, perr, ng, eq.p, eq.err, scene_scale, mode,
+                                                                          light_like ? Vec3f(0.0f) : nq);
                             ++c.shadow_rays[m];
-                            const bool occ = acc.occluded(s, st);
-                            c.shadow_false[m] += occ;
-                            if (occ && m == 0 && std::getenv("EXTREMES_DEBUG"))
-                                std::fprintf(stderr, "pair-false %s p=(%.9g %.9g %.9g) perr=(%g %g %g) ng=(%g %g %g) q=(%.9g %.9g %.9g) nq=(%g %g %g) light=%d org=(%.9g %.9g %.9g) tmax=%g\n",
-                                             w.name.c_str(), p.x, p.y, p.z, perr.x, perr.y, perr.z, ng.x, ng.y, ng.z,
-                                             q.x, q.y, q.z, nq.x, nq.y, nq.z, int(light_like), s.org.x, s.org.y, s.org.z, s.t_max);
+                            const Verdict v = classify_segment(w, acc, sg, ep, eq, st);
+                            c.shadow_false[m] += v == Verdict::False;
+                            c.shadow_ambiguous[m] += v == Verdict::Ambiguous;
                         }
                     }
                 }
@@ -657,19 +836,33 @@ inline Counts measure(const World& w, const accel::Accelerator& acc, const RayBu
                     const accel::Ray ray = ray_at(tp, d, L, t_at);
                     const RefHit ref = ref_intersect(Vec3d(ray.org), Vec3d(ray.dir), w.v(tri, 0), w.v(tri, 1),
                                                      w.v(tri, 2));
-                    // Only rays the reference places robustly inside the triangle.
-                    if (!(ref.plane && ref.margin > 1e-4 && ref.t > 0)) continue;
+                    const RefBound rb = ref_bound(Vec3d(ray.org), Vec3d(ray.dir), w.v(tri, 0), w.v(tri, 1),
+                                                  w.v(tri, 2));
+                    // Only rays float can decide: inside by more than twice the edge
+                    // functions' error bound, in front of the origin by more than t's.
+                    if (!(ref.plane && rb.decidable_inside && ref.t > 2 * rb.delta_t)) continue;
                     ++c.ref_rays;
                     accel::Hit h;
                     const bool hit = acc.intersect(ray, h, st);
-                    if (!hit || double(h.t) > ref.t * (1 + 1e-4)) {
+                    // A miss, or a nearest hit beyond this triangle: the ray went through it.
+                    if (!hit || (h.prim_id != tri && double(h.t) > ref.t + 2 * rb.delta_t)) {
+                        if (std::getenv("EXTREMES_DEBUG"))
+                            std::fprintf(stderr, "wmiss %s %s kind=%u tri=%u hit=%d ht=%g hprim=%u ref.t=%g dt=%g org=(%a %a %a) dir=(%a %a %a)\n",
+                                         g_debug_label.c_str(), w.name.c_str(), kind, tri, int(hit), h.t, h.prim_id, ref.t, rb.delta_t,
+                                         ray.org.x, ray.org.y, ray.org.z, ray.dir.x, ray.dir.y, ray.dir.z);
                         ++c.wrong_miss;
                         continue;
                     }
                     if (h.prim_id != tri) continue;  // something in front: fine, not comparable
                     ++c.ref_compared;
-                    c.max_rel_t = std::max(c.max_rel_t, std::abs(double(h.t) - ref.t) / ref.t);
-                    c.max_bary = std::max({c.max_bary, std::abs(double(h.u) - ref.u), std::abs(double(h.v) - ref.v)});
+                    const double dt = std::abs(double(h.t) - ref.t);
+                    c.max_t_over_bound = std::max(c.max_t_over_bound, dt / rb.delta_t);
+                    if (kind == 1) {
+                        c.max_rel_t_grazing = std::max(c.max_rel_t_grazing, dt / ref.t);
+                    } else {
+                        c.max_rel_t = std::max(c.max_rel_t, dt / ref.t);
+                        c.max_bary = std::max({c.max_bary, std::abs(double(h.u) - ref.u), std::abs(double(h.v) - ref.v)});
+                    }
                 }
             }
         });

@@ -138,10 +138,10 @@ inline constexpr float kShadowEpsilon = 1e-4f;
 /// ErrorBound: pbrt-v4 SpawnRayTo. The origin is offset as for spawn_ray. The far end
 /// must stop short of the target's error box too, or the segment may report the
 /// light's own surface as the occluder: with the target's unit normal known
-/// (target_n != 0) the end is offset off that surface by OffsetRayOrigin, as pbrt-v4
-/// does; without it, the end backs off along the segment by the box's full extent
-/// (|err|_1, which covers the box whatever the segment's direction). Both then keep
-/// t <= 1 - kShadowEpsilon.
+/// (target_n != 0) the end is first offset off that surface by OffsetRayOrigin, as
+/// pbrt-v4 does; in every case the end then backs off along the segment by the box's
+/// full extent (|err|_1, which covers the box whatever the segment's direction) and
+/// keeps t <= 1 - kShadowEpsilon.
 ///
 /// Epsilon: the previous behaviour (back off by twice the plain epsilon at the end).
 inline accel::Ray spawn_segment(const Vec3f& p, const Vec3f& p_err, const Vec3f& ng, const Vec3f& target,
@@ -163,8 +163,12 @@ inline accel::Ray spawn_segment(const Vec3f& p, const Vec3f& p_err, const Vec3f&
     r.dir = end - r.org;
     r.t_min = spawn_t_min(p_err, r.dir);
     const float len = accel::length(r.dir);
-    float back = 0.0f;  // distance to back off along the segment
-    if (!has_n) back = target_err.x + target_err.y + target_err.z;
+    // Back off by the target's whole error box even when its normal moved the end off
+    // the surface: the normal offset clears the target's own plane only, and a target
+    // near an edge (within its box of the neighbouring face, as computed points on
+    // convex corners often are) would otherwise be reached through that face. This is
+    // the mirror of spawn_t_min at the near end.
+    const float back = target_err.x + target_err.y + target_err.z;
     r.t_max = len > 0 ? std::max(0.0f, 1.0f - kShadowEpsilon - back / len) : 0.0f;
     if (!(r.t_max >= 0.0f)) r.t_max = 0.0f;  // NaN in, no hit out
     return r;

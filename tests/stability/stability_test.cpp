@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <filesystem>
 #include <limits>
 
 #include "benchmarks/extremes.h"
@@ -46,9 +47,13 @@ TEST(Leaks, WatertightNeverLeaksAtSharedEdgesAndVertices) {
         }
 }
 
+// Placements where the error-bound offset once failed: far from the origin relative to
+// the mesh's size (offset/scale 1e4, and s = 1 at 1e6 on a 1/16 grid), and the extremes.
+const std::vector<Placement> kAcnePlacements = {{1e-6, 1e-2}, {1e-3, 0}, {1, 1e4}, {1, 1e6}, {1e7, 1e6}};
+
 TEST(Acne, ErrorBoundOffsetHasNoFalseSelfHits) {
     for (const UnitMesh& m : {make_icosphere(3), make_cube(8)})
-        for (const Placement& pl : {Placement{1e-3, 0}, Placement{1, 0}, Placement{1e7, 1e6}}) {
+        for (const Placement& pl : kAcnePlacements) {
             World w = place_mesh(m, pl);
             auto acc = build(w, "custom", accel::TriangleTest::Watertight);
             RayBudget b;
@@ -56,34 +61,71 @@ TEST(Acne, ErrorBoundOffsetHasNoFalseSelfHits) {
             b.acne = 20000;
             b.ref = 1;
             Counts c = measure(w, *acc, b, 2);
-            EXPECT_GT(c.acne_rays(0), 20000u);
+            EXPECT_GT(c.acne_rays(0), 15000u);
+            EXPECT_GT(c.shadow_rays[0], 5000u);
             EXPECT_EQ(c.acne_false(0), 0u) << m.name << " " << pl.label();
-            std::printf("%s %s: false self-hits error-bound %llu/%llu, epsilon %llu/%llu\n", m.name.c_str(),
-                        pl.label().c_str(), (unsigned long long)c.acne_false(0), (unsigned long long)c.acne_rays(0),
+            // Hits decided below rounding stay rare: near edges only. Not at s = 1, t = 1e6,
+            // where the error box (7 ulps of 1e6 per axis) is as large as the mesh and
+            // every point is within rounding of every face.
+            if (pl.offset < 1e5 * pl.scale) {
+                EXPECT_LT(double(c.acne_ambiguous(0)), 0.02 * double(c.acne_rays(0))) << m.name << " " << pl.label();
+            }
+            std::printf("%s %s: false self-hits error-bound %llu/%llu (ambiguous %llu), epsilon %llu/%llu\n",
+                        m.name.c_str(), pl.label().c_str(), (unsigned long long)c.acne_false(0),
+                        (unsigned long long)c.acne_rays(0), (unsigned long long)c.acne_ambiguous(0),
                         (unsigned long long)c.acne_false(1), (unsigned long long)c.acne_rays(1));
         }
 }
 
-// DISABLED: ~3% of the reference rays report a miss the double reference does not
-// (not yet understood: possibly the reference-ray construction); see the issue-8 report.
-TEST(Reference, DISABLED_TAgreesWithDoublePrecision) {
-    for (const Placement& pl : kPlacements) {
-        World w = place_mesh(make_icosphere(3), pl);
-        for (auto test : {accel::TriangleTest::Fast, accel::TriangleTest::Watertight}) {
-            auto acc = build(w, "custom", test);
-            RayBudget b;
-            b.leak = 1;
-            b.acne = 1;
-            b.ref = 20000;
-            Counts c = measure(w, *acc, b, 3);
-            EXPECT_GT(c.ref_compared, 1000u);
-            // Includes grazing rays down to 1e-6 rad, where t is ill-conditioned.
-            EXPECT_LT(c.max_rel_t, 1e-2) << pl.label();
-            std::printf("%s %s: max rel t error %.3g, max barycentric error %.3g, wrong misses %llu/%llu\n",
-                        pl.label().c_str(), test == accel::TriangleTest::Fast ? "fast" : "watertight",
-                        c.max_rel_t, c.max_bary, (unsigned long long)c.wrong_miss, (unsigned long long)c.ref_rays);
-        }
+// The CS184 meshes (concave, self-intersecting teapot) at a far placement: no false
+// self-hit either. Reported, not silently passed, when ../shared is absent.
+TEST(Acne, CS184MeshesFarFromOrigin) {
+    const std::string dir = std::string(PT_SHARED_SCENES) + "/cs184";
+    for (const char* name : {"cow", "teapot"}) {
+        const std::string path = dir + "/" + name + ".dae";
+        if (!std::filesystem::exists(path)) GTEST_SKIP() << "shared scenes not found: " << path;
+        World w = place_mesh(load_unit_mesh(path, name), Placement{1, 1e4});
+        auto acc = build(w, "custom", accel::TriangleTest::Watertight);
+        RayBudget b;
+        b.leak = 1;
+        b.acne = 20000;
+        b.ref = 1;
+        Counts c = measure(w, *acc, b, 4);
+        EXPECT_GT(c.acne_rays(0), 15000u);
+        EXPECT_EQ(c.acne_false(0), 0u) << name;
+        std::printf("%s s=1 t=1e4: false self-hits %llu/%llu, ambiguous %llu\n", name,
+                    (unsigned long long)c.acne_false(0), (unsigned long long)c.acne_rays(0),
+                    (unsigned long long)c.acne_ambiguous(0));
     }
+}
+
+// Rays float can decide (edge functions beyond pbrt-v4's error bound) are never missed by
+// our backends, and our watertight t stays within pbrt-v4's bound on t's error.
+TEST(Reference, DecidableRaysHitAndTStaysWithinTheErrorBound) {
+    for (const Placement& pl : kPlacements)
+        for (const UnitMesh& m : {make_icosphere(3), make_cube(8)}) {
+            World w = place_mesh(m, pl);
+            for (auto test : {accel::TriangleTest::Fast, accel::TriangleTest::Watertight}) {
+                auto acc = build(w, "custom", test);
+                RayBudget b;
+                b.leak = 1;
+                b.acne = 1;
+                b.ref = 20000;
+                Counts c = measure(w, *acc, b, 3);
+                const char* tn = test == accel::TriangleTest::Fast ? "fast" : "watertight";
+                EXPECT_GT(c.ref_compared, 5000u) << m.name << " " << pl.label();
+                EXPECT_EQ(c.wrong_miss, 0u) << m.name << " " << pl.label() << " " << tn;
+                if (test == accel::TriangleTest::Watertight) {
+                    EXPECT_LE(c.max_t_over_bound, 1.0) << pl.label();
+                }
+                // Well-conditioned rays: t to a few parts in 1e4 at worst (random
+                // directions include some near-grazing ones).
+                EXPECT_LT(c.max_rel_t, 1e-3) << m.name << " " << pl.label() << " " << tn;
+                std::printf("%s %s %s: max rel t error %.3g (grazing %.3g), |dt|/bound %.3g, wrong misses %llu/%llu\n",
+                            m.name.c_str(), pl.label().c_str(), tn, c.max_rel_t, c.max_rel_t_grazing,
+                            c.max_t_over_bound, (unsigned long long)c.wrong_miss, (unsigned long long)c.ref_rays);
+            }
+        }
 }
 
 // Williams 2005 / Ize 2013: the slab test with 0, -0 and tiny direction components and
