@@ -148,8 +148,8 @@ void make_masks(World& w, Reference& ref, int k) {
                         if (!std::isfinite(ls.distance)) continue;  // environment: not a cast shadow
                         ++facing;
                         const accel::Ray sr = renderer::spawn_segment(it.p, it.p_error, it.ng, ls.target,
-                                                                      renderer::light_point_error(ls.target), scale,
-                                                                      renderer::OffsetMode::ErrorBound);
+                                                                      ls.target_error, scale,
+                                                                      renderer::OffsetMode::ErrorBound, ls.normal);
                         if (!a.occluded(sr, st)) ++visible;
                     }
                 }

@@ -7,6 +7,7 @@
 
 #include "renderer/interaction.h"
 #include "renderer/sampling.h"
+#include "renderer/spawn.h"
 
 namespace renderer {
 
@@ -164,7 +165,11 @@ LightSet::LightSet(const scenes::Scene& scene, std::vector<std::string>& notes) 
 bool LightSet::sample(size_t i, const Vec3f& p, const Vec3f& n, Rng& rng, LightSample& out) const {
     const Light& l = lights_[i];
     out.delta = false;
-    auto finite_area = [&](const Vec3f& q, const Vec3f& nl, float area_pdf, bool two_sided) {
+    out.target_error = Vec3f(0.0f);
+    out.normal = Vec3f(0.0f);
+    // q is a point of the light computed in float with error bound q_err (pbrt-v4 6.8
+    // style: gamma(n) times the sum of the magnitudes added).
+    auto finite_area = [&](const Vec3f& q, const Vec3f& q_err, const Vec3f& nl, float area_pdf, bool two_sided) {
         const Vec3f d = q - p;
         const float dist2 = accel::dot(d, d);
         if (!(dist2 > 0)) return false;
@@ -176,6 +181,8 @@ bool LightSet::sample(size_t i, const Vec3f& p, const Vec3f& n, Rng& rng, LightS
         if (!(cos_l > 0)) return false;
         out.radiance = l.radiance;
         out.target = q;
+        out.target_error = q_err;
+        out.normal = nl;
         out.wi = wi;
         out.distance = dist;
         out.pdf = area_pdf * dist2 / cos_l;
@@ -183,8 +190,10 @@ bool LightSet::sample(size_t i, const Vec3f& p, const Vec3f& n, Rng& rng, LightS
     };
     switch (l.kind) {
         case Kind::Rect: {
-            const Vec3f q = l.position + l.edge_u * (rng.next_float() - 0.5f) + l.edge_v * (rng.next_float() - 0.5f);
-            return finite_area(q, l.normal, 1.0f / l.area, false);
+            const Vec3f du = l.edge_u * (rng.next_float() - 0.5f), dv = l.edge_v * (rng.next_float() - 0.5f);
+            const Vec3f q = l.position + du + dv;
+            const Vec3f err = (accel::vabs(l.position) + accel::vabs(du) + accel::vabs(dv)) * gamma_bound(5);
+            return finite_area(q, err, l.normal, 1.0f / l.area, false);
         }
         case Kind::Mesh: {
             const float u = rng.next_float();
@@ -194,8 +203,12 @@ bool LightSet::sample(size_t i, const Vec3f& p, const Vec3f& n, Rng& rng, LightS
             const Tri& t = tris_[l.first_tri + k];
             float a = rng.next_float(), b = rng.next_float();
             if (a + b > 1.0f) { a = 1.0f - a; b = 1.0f - b; }
-            const Vec3f q = t.v0 + t.e1 * a + t.e2 * b;
-            if (!finite_area(q, t.n, 1.0f / l.area, false)) return false;
+            const Vec3f ea = t.e1 * a, eb = t.e2 * b;
+            const Vec3f q = t.v0 + ea + eb;
+            // gamma(7) as for a hit point (renderer/interaction.cpp), which also covers the
+            // rounding of the stored edges e1 = v1 - v0, e2 = v2 - v0.
+            const Vec3f err = (accel::vabs(t.v0) + accel::vabs(ea) + accel::vabs(eb)) * gamma_bound(7);
+            if (!finite_area(q, err, t.n, 1.0f / l.area, false)) return false;
             if (l.texture != scenes::kNoTexture) {
                 const scenes::Mesh& m = scene_->meshes[t.mesh];
                 const uint32_t* idx = &m.indices[3 * size_t(t.index)];
@@ -210,7 +223,10 @@ bool LightSet::sample(size_t i, const Vec3f& p, const Vec3f& n, Rng& rng, LightS
         case Kind::Sphere: {
             const Vec3f nl = uniform_sphere(rng.next_float(), rng.next_float());
             // Two-sided like meshes: a camera inside an emissive sphere sees it too.
-            return finite_area(l.position + nl * l.radius, nl, 1.0f / l.area, true);
+            const Vec3f r = nl * l.radius;
+            // |nl| is 1 only to a few ulps (sqrt, sin, cos): gamma(9) on the radius.
+            const Vec3f err = accel::vabs(l.position) * gamma_bound(1) + accel::vabs(r) * gamma_bound(9);
+            return finite_area(l.position + r, err, nl, 1.0f / l.area, true);
         }
         case Kind::Point:
         case Kind::Spot: {

@@ -18,6 +18,12 @@ using accel::Vec3f;
 struct LightSample {
     Vec3f radiance;       ///< emitted radiance (area) or intensity-derived radiance (delta)
     Vec3f target;         ///< point on the light (finite lights)
+    /// Rounding bound on |target - the light's exact surface| and the light's unit
+    /// normal there (zero for point and spot lights, which are exact points and no
+    /// surface): shadow segments stop short of the light's own surface with them
+    /// (renderer/spawn.h, spawn_segment), at any scale and at grazing arrival.
+    Vec3f target_error{0.0f};
+    Vec3f normal{0.0f};
     Vec3f wi;             ///< unit direction from the shading point toward the light
     float distance = 0;   ///< to the target; infinity for directional/environment
     float pdf = 0;        ///< solid-angle density; 1 for delta lights

@@ -111,8 +111,8 @@ Vec3f PathIntegrator::direct_lights(const Interaction& it, const Vec3f& albedo, 
             const float cos_s = accel::dot(it.ns, ls.wi);
             if (!(cos_s > 0) || accel::dot(it.ng, ls.wi) <= 0) continue;
             const accel::Ray shadow = std::isfinite(ls.distance)
-                                          ? spawn_segment(it.p, it.p_error, it.ng, ls.target,
-                                                          light_point_error(ls.target), scale_, s_.offset)
+                                          ? spawn_segment(it.p, it.p_error, it.ng, ls.target, ls.target_error,
+                                                          scale_, s_.offset, ls.normal)
                                           : spawn_ray(it.p, it.p_error, it.ng, ls.wi, scale_, s_.offset);
             if (ctx.accel.occluded(shadow, ctx.stats)) continue;
             acc += ls.radiance * f * (cos_s / ls.pdf);

@@ -172,6 +172,70 @@ TEST(SlabTest, BvhAgreesWithNaiveOnAxisAndFaceRays) {
     }
 }
 
+// A light sample carries the light's normal and error bound, so the shadow segment stops
+// short of the light's own surface even where it arrives at a grazing angle, far from
+// the origin: the case a bare point (back-off along the segment only) gets wrong.
+TEST(Lights, GrazingLightSamplesClearTheLightsOwnSurface) {
+    for (double off : {0.0, 1e3, 1e5}) {
+        const Vec3d o = offset_dir() * off;
+        scenes::Scene scene;
+        scenes::Material light;
+        light.emission = Vec3f(1.0f);
+        scene.materials = {light};
+        // A unit square in the plane x = 0, emitting toward -x, tilted about z and y so
+        // that no coordinate of a sampled point is exact, then shifted by o.
+        auto frame = [](const Vec3d& v) {
+            const double a = 0.3, b = 0.2;
+            const Vec3d r(v.x * std::cos(a) - v.y * std::sin(a), v.x * std::sin(a) + v.y * std::cos(a), v.z);
+            return Vec3d(r.x * std::cos(b) + r.z * std::sin(b), r.y, -r.x * std::sin(b) + r.z * std::cos(b));
+        };
+        scenes::Mesh m;
+        for (const Vec3d& v : {Vec3d(0, -0.5, 0), Vec3d(0, 0.5, 0), Vec3d(0, 0.5, 1), Vec3d(0, -0.5, 1)})
+            m.positions.push_back(Vec3f(o + frame(v)));
+        m.pad_positions();
+        m.indices = {0, 2, 1, 0, 3, 2};
+        m.material = 0;
+        scene.meshes.push_back(m);
+        renderer::SceneGeometry geometry(scene);
+        auto acc = renderer::build_accelerator("custom", geometry, {}, false);
+        std::vector<std::string> notes;
+        renderer::LightSet lights(scene, notes);
+        ASSERT_EQ(lights.size(), 1u);
+        ASSERT_EQ(lights.kind(0), renderer::LightSet::Kind::Mesh);
+        renderer::Rng rng(7, 0);
+        accel::TraceStats st;
+        const Vec3f ng(frame(Vec3d(1, 0, 0)));  // the shading point's surface faces the light
+        int n = 0, grazing = 0, with_normal = 0, without_normal = 0;
+        for (int i = 0; i < 20000; ++i) {
+            // In front of the light, close to its plane (yet beyond the point's own
+            // rounding, 4 |err|_1, or the point itself may lie behind the light) and far
+            // to the side: the segment arrives at cosines down to 1e-5.
+            const double clear = 4.0 * 3.0 * double(renderer::gamma_bound(7)) * accel::length(o);
+            const Vec3d local(-1e-3 - clear - 0.05 * rng.next_float(), (rng.next_float() - 0.5) * 400.0,
+                              rng.next_float());
+            const Vec3f p(o + frame(local));
+            const Vec3f p_err = accel::vabs(p) * renderer::gamma_bound(7);
+            renderer::LightSample ls;
+            if (!lights.sample(0, p, ng, rng, ls) || !std::isfinite(ls.distance)) continue;
+            ++n;
+            grazing += std::abs(accel::dot(ls.normal, ls.wi)) < 0.01f;
+            EXPECT_FLOAT_EQ(accel::length(ls.normal), 1.0f);
+            const accel::Ray a = renderer::spawn_segment(p, p_err, ng, ls.target, ls.target_error, 2.0f,
+                                                         renderer::OffsetMode::ErrorBound, ls.normal);
+            const accel::Ray b = renderer::spawn_segment(p, p_err, ng, ls.target, ls.target_error, 2.0f,
+                                                         renderer::OffsetMode::ErrorBound);
+            with_normal += acc->occluded(a, st);
+            without_normal += acc->occluded(b, st);
+        }
+        EXPECT_GT(n, 15000);
+        EXPECT_GT(grazing, 1000);
+        EXPECT_EQ(with_normal, 0) << "offset " << off;
+        std::printf("offset %g: %d light samples (%d grazing): occluded by the light itself %d with its "
+                    "normal, %d without\n",
+                    off, n, grazing, with_normal, without_normal);
+    }
+}
+
 // NaN/Inf never poisons a pixel: the degenerate triangle is dropped at build time and
 // counted; rays with NaN components miss.
 TEST(NaN, NanVertexIsDroppedAndNoPixelIsNaN) {
