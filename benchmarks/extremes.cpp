@@ -50,6 +50,9 @@ int main(int argc, char** argv) {
     app.add_option("--scenes", scenes_dir, "Folder with cow.dae, teapot.dae, bunny.dae");
     app.add_option("--csv", csv, "CSV output (one row per placement, mesh and backend)");
     app.add_option("--seed", seed, "Random seed");
+    std::vector<double> only;
+    app.add_option("--placement", only, "Only this placement: SCALE OFFSET (e.g. --placement 1e3 1e6)")
+        ->expected(2);
     tools::parse_or_exit(app, argc, argv, "extremes");
     if (quick) rays = 20000;
     if (acne == 0) acne = std::max<uint64_t>(1, rays / 5);
@@ -78,6 +81,11 @@ int main(int argc, char** argv) {
     std::vector<Placement> places = {{1e-6, 0}, {1e-6, 1e-2}, {1e-3, 0}, {1e-3, 10},  {1, 0},    {1, 1e4},
                                      {1, 1e6},  {1e3, 0},    {1e3, 1e6}, {1e7, 0},   {1e7, 1e6}};
     if (quick) places = {{1e-6, 1e-2}, {1, 0}, {1, 1e6}, {1e7, 1e6}};
+    if (only.size() == 2) {
+        if (!(only[0] > 0) || !std::isfinite(only[0]) || !std::isfinite(only[1]))
+            tools::fail("extremes", "--placement needs a positive finite scale and a finite offset");
+        places = {{only[0], only[1]}};
+    }
 
     std::vector<std::string> available = accel::available_backends();
     const bool have_embree = !no_embree && std::find(available.begin(), available.end(), "embree") != available.end();
@@ -149,6 +157,38 @@ int main(int argc, char** argv) {
             }
         }
     }
+    // Thin walls: light leaking through a wall 1e-3 of the scene thick.
+    const uint64_t wall_rays = std::max<uint64_t>(1, rays / 10);
+    fmt::print("\nthin wall (1e-3 of the scene thick, at least 64 ulps), {} shadow segments per placement and "
+               "backend; leaks = segments through the wall, of which 'within' start within rounding of it\n",
+               wall_rays);
+    fmt::print("{:<13} {:<17} {:>9} {:>4} | {:>9} {:>8} | {:>9} {:>8}\n", "placement", "backend", "thickness", "drop",
+               "leaks.eb", "within", "leaks.eps", "within");
+    std::ofstream wall_out(csv.substr(0, csv.rfind('.')) + "_wall.csv");
+    wall_out << "scale,offset,thickness,backend,dropped,rays,leaks_eb,leaks_within_eb,leaks_eps,leaks_within_eps\n";
+    for (const Placement& pl : places) {
+        const double thickness = thin_wall_thickness(pl);
+        const World w = make_thin_wall(thickness, pl);
+        const accel::GeometryView gv = w.view();
+        for (const BackendCase& bc : backends) {
+            std::unique_ptr<accel::Accelerator> acc =
+                accel::create_accelerator(bc.backend, std::span<const accel::GeometryView>(&gv, 1), bc.options);
+            const WallCounts c = measure_thin_wall(w, thickness, *acc, wall_rays, seed + 99);
+            fmt::print("{:<13} {:<17} {:>9.2e} {:>4} | {:>9} {:>8} | {:>9} {:>8}\n", pl.label(), bc.label,
+                       thickness * pl.scale, c.dropped,
+                       rate(c.leaks[0], c.rays[0]), c.leaks_within[0], rate(c.leaks[1], c.rays[1]),
+                       c.leaks_within[1]);
+            wall_out << fmt::format("{:g},{:g},{:g},{},{},{},{},{},{},{}\n", pl.scale, pl.offset, thickness * pl.scale,
+                                    bc.label, c.dropped,
+                                    c.rays[0], c.leaks[0], c.leaks_within[0], c.leaks[1], c.leaks_within[1]);
+            if (c.leaks[0] > c.leaks_within[0]) {
+                failed = true;
+                failures.push_back(fmt::format("{} {}: {} error-bound leaks through the thin wall", pl.label(),
+                                               bc.label, c.leaks[0] - c.leaks_within[0]));
+            }
+        }
+    }
+
     const double secs = std::chrono::duration<double>(std::chrono::steady_clock::now() - t_start).count();
     fmt::print("wrote {} ({:.1f} s)\n", csv, secs);
     for (const std::string& f : failures) fmt::print("FAIL {}\n", f);

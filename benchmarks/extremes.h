@@ -759,30 +759,23 @@ inline Counts measure(const World& w, const accel::Accelerator& acc, const RayBu
                                          g_debug_label.c_str(), w.name.c_str(), h.prim_id, h2.prim_id, h2.t, int(outward), p.x, p.y, p.z,
                                          perr.x, perr.y, perr.z, ng.x, ng.y, ng.z, wi.x, wi.y, wi.z);
                         // Shadow segment back from where the hemisphere ray landed (a
-                        // mutually visible pair), with the target's normal (surface to
-                        // surface) on some rays and without it (as toward a light) on others.
+                        // mutually visible pair), both ends with their surface normals, as
+                        // the renderer spawns segments to surfaces and to area lights
+                        // (renderer::LightSample carries the light's normal; point lights
+                        // are exact points). What a segment without the target's normal
+                        // costs is measured in tests/stability (Lights.*).
                         if (hemi_hit && hv == Verdict::Clear) {
                             const Endpoint e2 = make_endpoint(w, h2.prim_id, h2.u, h2.v);
                             Vec3f n2 = Vec3f(w.unit_normal[h2.prim_id]);
                             if (accel::dot(n2, wi) > 0) n2 = -n2;
-                            // Without the target's normal (as toward a light sample) only
-                            // where the segment meets the target at a cosine >= 0.1: at
-                            // grazing arrival the back-off along the segment cannot clear
-                            // the target's own surface (and a light's contribution there
-                            // vanishes with the cosine).
-                            const bool light_like = !(i & 2) && std::abs(accel::dot(ng, wi)) >= 0.1f;
-                            const accel::Ray sg = renderer::spawn_segment(e2.p, e2.err, n2, p, perr, scene_scale, mode,
-                                                                          light_like ? Vec3f(0.0f) : ng);
+                            const accel::Ray sg = renderer::spawn_segment(e2.p, e2.err, n2, p, perr, scene_scale, mode, ng);
                             ++c.shadow_rays[m];
                             const Verdict v = classify_segment(w, acc, sg, e2, ep, st);
                             c.shadow_false[m] += v == Verdict::False;
                             c.shadow_ambiguous[m] += v == Verdict::Ambiguous;
                         }
                         if (have_q) {
-                            const Vec3f pq = eq.p - p;
-                            const bool light_like = !(i & 2) && std::abs(accel::dot(nq, pq)) >= 0.1f * accel::length(pq);
-                            const accel::Ray sg = renderer::spawn_segment(p, perr, ng, eq.p, eq.err, scene_scale, mode,
-                                                                          light_like ? Vec3f(0.0f) : nq);
+                            const accel::Ray sg = renderer::spawn_segment(p, perr, ng, eq.p, eq.err, scene_scale, mode, nq);
                             ++c.shadow_rays[m];
                             const Verdict v = classify_segment(w, acc, sg, ep, eq, st);
                             c.shadow_false[m] += v == Verdict::False;
@@ -870,6 +863,101 @@ inline Counts measure(const World& w, const accel::Accelerator& acc, const RayBu
 
     Counts total;
     for (const Counts& c : local) total.add(c);
+    total.dropped = acc.info().dropped;
+    return total;
+}
+
+/// Thickness (unit-mesh units) of the thin wall at a placement: 1e-3 of the scene, but
+/// at least 64 ulps of the placement's coordinates, since a wall thinner than a few ulps
+/// cannot be represented (both faces round to the same plane) and every offset, pbrt's
+/// included, steps through it.
+inline double thin_wall_thickness(const Placement& pl) {
+    const double coord = std::abs(pl.offset) * accel::length(offset_dir()) + pl.scale;
+    const double ulp = std::nextafter(float(coord), INFINITY) - float(coord);
+    return std::max(1e-3, 64.0 * ulp / pl.scale);
+}
+
+/// Light leaking through a thin wall: a closed box wall of thickness `thickness` (x in
+/// [0, thickness], |y| <= 0.9, z in [0, 0.9]) standing on a floor (z = 0, |x|, |y| <= 1),
+/// placed like the meshes. Shadow segments run from floor points on the -x side (found
+/// as a renderer finds them: barycentrics on a floor triangle, with their error bound;
+/// distances to the wall log-uniform from 0.5 down to 5e-7) to point-light positions on
+/// the +x side, which the wall hides. A segment the backend does not find occluded is a
+/// leak. Leaks from points within reach of the wall's plane (error box plus offset,
+/// detail::reach) are counted apart: there the floor point itself is within rounding of
+/// the wall.
+struct WallCounts {
+    uint64_t rays[2] = {}, leaks[2] = {}, leaks_within[2] = {};  ///< per OffsetMode
+    uint64_t dropped = 0;
+};
+
+inline World make_thin_wall(double thickness, const Placement& pl) {
+    UnitMesh m;
+    m.name = "thin-wall";
+    m.pos = {{-1, -1, 0}, {1, -1, 0}, {1, 1, 0}, {-1, 1, 0}};
+    m.idx = {0, 1, 2, 0, 2, 3};
+    const double x0 = 0, x1 = thickness, y = 0.9, z = 0.9;
+    const uint32_t b = 4;
+    for (int k = 0; k < 8; ++k) m.pos.push_back(Vec3d(k & 1 ? x1 : x0, k & 2 ? y : -y, k & 4 ? z : 0.0));
+    // Outward-wound faces of the box (corner k = x | 2y | 4z).
+    const uint32_t f[12][3] = {{0, 4, 6}, {0, 6, 2}, {1, 3, 7}, {1, 7, 5}, {0, 1, 5}, {0, 5, 4},
+                               {2, 6, 7}, {2, 7, 3}, {0, 2, 3}, {0, 3, 1}, {4, 5, 7}, {4, 7, 6}};
+    for (const auto& t : f) m.idx.insert(m.idx.end(), {b + t[0], b + t[1], b + t[2]});
+    return place_mesh(m, pl);
+}
+
+inline WallCounts measure_thin_wall(const World& w, double thickness, const accel::Accelerator& acc, uint64_t n,
+                                    uint64_t seed) {
+    using namespace detail;
+    tbb::enumerable_thread_specific<WallCounts> local;
+    const float scene_scale = float(2.0 * w.radius);
+    const double s = w.place.scale;
+    const Vec3d off = offset_dir() * w.place.offset;
+    const uint64_t chunk = 4096;
+    tbb::parallel_for(tbb::blocked_range<uint64_t>(0, (n + chunk - 1) / chunk), [&](const auto& range) {
+        WallCounts& c = local.local();
+        accel::TraceStats st;
+        for (uint64_t ci = range.begin(); ci != range.end(); ++ci) {
+            renderer::Rng rng(seed, 0x3A1100000ull + ci);
+            for (uint64_t i = ci * chunk; i < std::min(n, (ci + 1) * chunk); ++i) {
+                // Floor point at distance dx from the wall's face x = 0, as barycentrics of
+                // the floor triangle that holds it.
+                const double dx = 0.5 * std::pow(10.0, -6.0 * rnd(rng));
+                const Vec3d local(-dx, rnd(rng) - 0.5, 0.0);
+                const uint32_t tri = local.y > local.x ? 1 : 0;  // diagonal (-1,-1)-(1,1)
+                const Vec3d a(w.v(tri, 0)), b(w.v(tri, 1)), cc(w.v(tri, 2));
+                const Vec3d x = local * s + off;
+                // Solve x = a + u (b - a) + v (c - a) in the floor plane (z is constant).
+                const double det = (b.x - a.x) * (cc.y - a.y) - (b.y - a.y) * (cc.x - a.x);
+                if (det == 0) continue;
+                const double u = ((x.x - a.x) * (cc.y - a.y) - (x.y - a.y) * (cc.x - a.x)) / det;
+                const double v = ((b.x - a.x) * (x.y - a.y) - (b.y - a.y) * (x.x - a.x)) / det;
+                const Endpoint ep = make_endpoint(w, tri, float(u), float(v));
+                const Vec3f light(Vec3d(thickness + 0.05 + 0.45 * rnd(rng), rnd(rng) - 0.5, 0.1 + 0.4 * rnd(rng)) * s + off);
+                // Within rounding: the exact floor point is within reach of the wall's face.
+                const bool within = std::abs(ep.exact.x - off.x) <= reach(ep);
+                for (int m = 0; m < 2; ++m) {
+                    const accel::Ray sg = renderer::spawn_segment(ep.p, ep.err, Vec3f(0, 0, 1), light, Vec3f(0.0f),
+                                                                  scene_scale, kModes[m]);
+                    ++c.rays[m];
+                    if (!acc.occluded(sg, st)) {
+                        if (m == 0 && std::getenv("EXTREMES_DEBUG"))
+                            std::fprintf(stderr, "wall-leak %s dx=%g within=%d p=(%.9g %.9g %.9g) exact.x-off=%g org=(%.9g %.9g %.9g) tmin=%g tmax=%g light=(%.9g %.9g %.9g)\n",
+                                         g_debug_label.c_str(), dx * s, int(within), ep.p.x, ep.p.y, ep.p.z, ep.exact.x - off.x, sg.org.x, sg.org.y, sg.org.z, sg.t_min, sg.t_max, light.x, light.y, light.z);
+                        ++c.leaks[m];
+                        c.leaks_within[m] += within;
+                    }
+                }
+            }
+        }
+    });
+    WallCounts total;
+    for (const WallCounts& c : local)
+        for (int m = 0; m < 2; ++m) {
+            total.rays[m] += c.rays[m];
+            total.leaks[m] += c.leaks[m];
+            total.leaks_within[m] += c.leaks_within[m];
+        }
     total.dropped = acc.info().dropped;
     return total;
 }

@@ -99,6 +99,25 @@ TEST(Acne, CS184MeshesFarFromOrigin) {
     }
 }
 
+// No light leaks through a thin wall (1e-3 of the scene, at least 64 ulps) from floor
+// points beyond the rounding of the wall; leaks within it are reported.
+TEST(ThinWall, NoLeaksBeyondRounding) {
+    for (const Placement& pl : {Placement{1e-6, 0}, Placement{1, 0}, Placement{1, 1e4}, Placement{1e3, 1e6}}) {
+        const double thickness = thin_wall_thickness(pl);
+        const World w = make_thin_wall(thickness, pl);
+        for (auto test : {accel::TriangleTest::Fast, accel::TriangleTest::Watertight}) {
+            auto acc = build(w, "custom", test);
+            const WallCounts c = measure_thin_wall(w, thickness, *acc, 50000, 5);
+            EXPECT_EQ(c.rays[0], 50000u);
+            EXPECT_EQ(c.leaks[0], c.leaks_within[0]) << pl.label();
+            EXPECT_EQ(c.leaks[1], c.leaks_within[1]) << pl.label() << " (epsilon)";
+            std::printf("%s: thin-wall leaks error-bound %llu (within rounding %llu), epsilon %llu of %llu\n",
+                        pl.label().c_str(), (unsigned long long)c.leaks[0], (unsigned long long)c.leaks_within[0],
+                        (unsigned long long)c.leaks[1], (unsigned long long)c.rays[0]);
+        }
+    }
+}
+
 // Rays float can decide (edge functions beyond pbrt-v4's error bound) are never missed by
 // our backends, and our watertight t stays within pbrt-v4's bound on t's error.
 TEST(Reference, DecidableRaysHitAndTStaysWithinTheErrorBound) {
