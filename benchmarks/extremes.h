@@ -622,21 +622,26 @@ inline Counts measure(const World& w, const accel::Accelerator& acc, const RayBu
             for (uint64_t ci = range.begin(); ci != range.end(); ++ci) {
                 renderer::Rng rng(seed, 0x1EA4000000ull + ci);
                 for (uint64_t i = ci * chunk; i < std::min(n, (ci + 1) * chunk); ++i) {
-                    Vec3d target;
-                    normals.clear();
+                    Vec3d target, d(0.0);
                     const bool vertex = w.edges.empty() || (!w.vertices.empty() && (i & 1));
-                    if (vertex) {
-                        const uint32_t vi = w.vertices[rng.next_u32() % w.vertices.size()];
-                        target = Vec3d(w.pos[vi]);
-                        for (uint32_t t : w.fan[vi]) normals.push_back(w.unit_normal[t]);
-                    } else {
-                        const World::Edge& e = w.edges[rng.next_u32() % w.edges.size()];
-                        const Vec3d a(w.pos[e.a]), b(w.pos[e.b]);
-                        target = a + (b - a) * rnd(rng);  // exact point of the edge, in double
-                        normals = {w.unit_normal[e.t0], w.unit_normal[e.t1]};
-                    }
                     bool axis = false;
-                    const Vec3d d = front_direction(normals, rng, axis, vertex);
+                    // A fan no direction sees all faces of from the front (folded by
+                    // rounding where the mesh collapses) is redrawn, so that the budget
+                    // counts rays cast, not attempts.
+                    for (int attempt = 0; attempt < 16 && d == Vec3d(0.0); ++attempt) {
+                        normals.clear();
+                        if (vertex) {
+                            const uint32_t vi = w.vertices[rng.next_u32() % w.vertices.size()];
+                            target = Vec3d(w.pos[vi]);
+                            for (uint32_t t : w.fan[vi]) normals.push_back(w.unit_normal[t]);
+                        } else {
+                            const World::Edge& e = w.edges[rng.next_u32() % w.edges.size()];
+                            const Vec3d a(w.pos[e.a]), b(w.pos[e.b]);
+                            target = a + (b - a) * rnd(rng);  // exact point of the edge, in double
+                            normals = {w.unit_normal[e.t0], w.unit_normal[e.t1]};
+                        }
+                        d = front_direction(normals, rng, axis, vertex);
+                    }
                     if (d == Vec3d(0.0)) continue;
                     float t_at;
                     const accel::Ray ray = ray_at(target, d, L, t_at);

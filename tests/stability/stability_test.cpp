@@ -27,6 +27,17 @@ std::unique_ptr<accel::Accelerator> build(const World& w, const char* backend, a
     return accel::create_accelerator(backend, std::span<const accel::GeometryView>(&gv, 1), o);
 }
 
+/// Builds the custom BVH over w and runs the given budget of each measurement.
+Counts measure_custom(const World& w, accel::TriangleTest test, uint64_t leak, uint64_t acne, uint64_t ref,
+                      uint64_t seed) {
+    auto acc = build(w, "custom", test);
+    RayBudget b;
+    b.leak = leak;
+    b.acne = acne;
+    b.ref = ref;
+    return measure(w, *acc, b, seed);
+}
+
 const std::vector<Placement> kPlacements = {{1e-3, 0}, {1, 0}, {1, 1e4}, {1e3, 1e6}, {1e7, 1e6}};
 
 }  // namespace
@@ -35,12 +46,7 @@ TEST(Leaks, WatertightNeverLeaksAtSharedEdgesAndVertices) {
     for (const UnitMesh& m : {make_icosphere(3), make_cube(8)})
         for (const Placement& pl : kPlacements) {
             World w = place_mesh(m, pl);
-            auto acc = build(w, "custom", accel::TriangleTest::Watertight);
-            RayBudget b;
-            b.leak = 20000;
-            b.acne = 1;
-            b.ref = 1;
-            Counts c = measure(w, *acc, b, 1);
+            Counts c = measure_custom(w, accel::TriangleTest::Watertight, 20000, 1, 1, 1);
             EXPECT_GT(c.leak_rays, 15000u);
             EXPECT_GT(c.axis_rays, 0u);
             EXPECT_EQ(c.leaks, 0u) << m.name << " " << pl.label();
@@ -55,12 +61,7 @@ TEST(Acne, ErrorBoundOffsetHasNoFalseSelfHits) {
     for (const UnitMesh& m : {make_icosphere(3), make_cube(8)})
         for (const Placement& pl : kAcnePlacements) {
             World w = place_mesh(m, pl);
-            auto acc = build(w, "custom", accel::TriangleTest::Watertight);
-            RayBudget b;
-            b.leak = 1;
-            b.acne = 20000;
-            b.ref = 1;
-            Counts c = measure(w, *acc, b, 2);
+            Counts c = measure_custom(w, accel::TriangleTest::Watertight, 1, 20000, 1, 2);
             EXPECT_GT(c.acne_rays(0), 15000u);
             EXPECT_GT(c.shadow_rays[0], 5000u);
             EXPECT_EQ(c.acne_false(0), 0u) << m.name << " " << pl.label();
@@ -85,12 +86,7 @@ TEST(Acne, CS184MeshesFarFromOrigin) {
         const std::string path = dir + "/" + name + ".dae";
         if (!std::filesystem::exists(path)) GTEST_SKIP() << "shared scenes not found: " << path;
         World w = place_mesh(load_unit_mesh(path, name), Placement{1, 1e4});
-        auto acc = build(w, "custom", accel::TriangleTest::Watertight);
-        RayBudget b;
-        b.leak = 1;
-        b.acne = 20000;
-        b.ref = 1;
-        Counts c = measure(w, *acc, b, 4);
+        Counts c = measure_custom(w, accel::TriangleTest::Watertight, 1, 20000, 1, 4);
         EXPECT_GT(c.acne_rays(0), 15000u);
         EXPECT_EQ(c.acne_false(0), 0u) << name;
         std::printf("%s s=1 t=1e4: false self-hits %llu/%llu, ambiguous %llu\n", name,
@@ -125,12 +121,7 @@ TEST(Reference, DecidableRaysHitAndTStaysWithinTheErrorBound) {
         for (const UnitMesh& m : {make_icosphere(3), make_cube(8)}) {
             World w = place_mesh(m, pl);
             for (auto test : {accel::TriangleTest::Fast, accel::TriangleTest::Watertight}) {
-                auto acc = build(w, "custom", test);
-                RayBudget b;
-                b.leak = 1;
-                b.acne = 1;
-                b.ref = 20000;
-                Counts c = measure(w, *acc, b, 3);
+                Counts c = measure_custom(w, test, 1, 1, 20000, 3);
                 const char* tn = test == accel::TriangleTest::Fast ? "fast" : "watertight";
                 EXPECT_GT(c.ref_compared, 5000u) << m.name << " " << pl.label();
                 EXPECT_EQ(c.wrong_miss, 0u) << m.name << " " << pl.label() << " " << tn;
