@@ -1,8 +1,9 @@
 #!/bin/bash
-# One command that regenerates benchmarks/results/: the accelerator table and the
-# speed-accuracy study (CSV + text tables) and their plots.
+# One command that regenerates benchmarks/results/: the accelerator table, the
+# speed-accuracy study (CSV + text tables) and their plots, and the numerical-stability
+# sweep (results/extremes/, ~4 minutes).
 #
-#   benchmarks/run_study.sh [all|accel|tradeoff|plots]    (default: all)
+#   benchmarks/run_study.sh [all|accel|tradeoff|extremes|plots]    (default: all)
 #
 # Environment: BUILD (build dir, default build-bench), PT_SHARED_SCENES (default
 # ../shared/scenes), REPEATS (accel_bench timed repeats, default 5).
@@ -20,7 +21,7 @@ REPEATS=${REPEATS:-5}
 mkdir -p "$OUT"
 
 cmake -S "$ROOT" -B "$BUILD" -G Ninja >/dev/null
-cmake --build "$BUILD" --target scenegen accel_bench tradeoff -j"$(nproc)"
+cmake --build "$BUILD" --target scenegen accel_bench tradeoff extremes -j"$(nproc)"
 
 if [[ $STAGE == all || $STAGE == accel ]]; then
   # Generated meshes live in the build dir (90 MB each), not in the repository.
@@ -52,6 +53,15 @@ if [[ $STAGE == all || $STAGE == tradeoff ]]; then
   # Three renders per setting, median time: the machine is shared and drifts.
   "$BUILD/benchmarks/tradeoff" --repeats 3 --csv "$OUT/tradeoff.csv" --ref-dir "$OUT/reference" \
     --scene "$SHARED/CBspheres_lambertian.dae" --scene "$SHARED/CBbunny.dae" | tee "$OUT/tradeoff.txt"
+fi
+
+if [[ $STAGE == all || $STAGE == extremes ]]; then
+  # Issue 8: 10M edge/vertex rays and 5M acne points per placement and backend. Exits 1 on
+  # a watertight leak, an error-bound false self-hit or a thin-wall leak.
+  mkdir -p "$OUT/extremes"
+  "$BUILD/benchmarks/extremes" --rays 10000000 --acne 5000000 --scenes "$SHARED" \
+    --csv "$OUT/extremes/extremes_10M.csv" | tee "$OUT/extremes/extremes_10M.txt"
+  python3 "$HERE/plot/extremes_table.py" "$OUT/extremes/extremes_10M.csv" > "$OUT/extremes/extremes_table.md"
 fi
 
 if [[ $STAGE == all || $STAGE == plots ]]; then
