@@ -156,8 +156,8 @@ inline accel::Ray spawn_segment(const Vec3f& p, const Vec3f& p_err, const Vec3f&
         // taken relative to the origin, Woop et al. 2013): a segment arriving at a
         // grazing angle meets the target's plane within about gamma(n) |segment| of its
         // end whatever the cosine, so the end must clear the plane by that much as well.
-        // Measured in tests/stability (Lights.*): without it, 30 in 20000 grazing light
-        // samples were shadowed by the light itself.
+        // Measured in tests/stability (Lights.*): without it, 2,298 of 20,000 light
+        // samples arriving at cosines down to 1e-5 were shadowed by the light itself.
         const Vec3f grow(gamma_bound(8) * accel::length(target - r.org));
         end = offset_ray_origin(target, target_err + grow, target_n, r.org - target);
     }
