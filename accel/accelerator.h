@@ -30,6 +30,27 @@ struct GeometryView {
     const uint32_t* indices = nullptr;
     const float* spheres = nullptr;
     uint32_t num_prims = 0;
+
+    /// A triangle mesh: num_vertices positions (plus one padding element after them, for
+    /// Embree's 16-byte loads) and three indices per triangle.
+    static GeometryView triangles(const Vec3f* positions, uint32_t num_vertices, const uint32_t* indices,
+                                  uint32_t num_triangles) {
+        GeometryView v;
+        v.type = GeometryType::Triangles;
+        v.positions = positions;
+        v.num_vertices = num_vertices;
+        v.indices = indices;
+        v.num_prims = num_triangles;
+        return v;
+    }
+    /// Spheres as (x, y, z, radius) quadruples.
+    static GeometryView sphere_list(const float* xyzr, uint32_t count) {
+        GeometryView v;
+        v.type = GeometryType::Spheres;
+        v.spheres = xyzr;
+        v.num_prims = count;
+        return v;
+    }
 };
 
 enum class TriangleTest : uint8_t { Fast, Watertight };  // Möller–Trumbore | Woop 2013

@@ -164,7 +164,9 @@ int main(int argc, char** argv) {
                wall_rays);
     fmt::print("{:<13} {:<17} {:>9} {:>4} | {:>9} {:>8} | {:>9} {:>8}\n", "placement", "backend", "thickness", "drop",
                "leaks.eb", "within", "leaks.eps", "within");
-    std::ofstream wall_out(csv.substr(0, csv.rfind('.')) + "_wall.csv");
+    std::filesystem::path wall_csv(csv);
+    wall_csv.replace_filename(wall_csv.stem().string() + "_wall.csv");
+    std::ofstream wall_out(wall_csv);
     wall_out << "scale,offset,thickness,backend,dropped,rays,leaks_eb,leaks_within_eb,leaks_eps,leaks_within_eps\n";
     for (const Placement& pl : places) {
         const double thickness = thin_wall_thickness(pl);

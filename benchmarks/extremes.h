@@ -194,13 +194,7 @@ struct World {
     Vec3d center;
     double radius = 1;  ///< of the bounding sphere
     accel::GeometryView view() const {
-        accel::GeometryView g;
-        g.type = accel::GeometryType::Triangles;
-        g.positions = pos.data();
-        g.num_vertices = num_vertices;
-        g.indices = idx.data();
-        g.num_prims = num_tris;
-        return g;
+        return accel::GeometryView::triangles(pos.data(), num_vertices, idx.data(), num_tris);
     }
     Vec3f v(uint32_t tri, int k) const { return pos[idx[3 * size_t(tri) + k]]; }
 };
@@ -493,6 +487,22 @@ inline bool is_convex_side_outside(const World& w, const Vec3f& p, const Vec3f& 
     return accel::dot(Vec3d(n), Vec3d(p) - w.center) > 0;
 }
 
+/// Runs body(counts, stats, rng, i) for i in [0, n) over TBB, in chunks of 4096 rays;
+/// chunk k draws from its own stream (seed, tag + k), so the rays, and the counts, do
+/// not depend on the thread count or the schedule.
+template <class C, class Body>
+void for_each_ray(tbb::enumerable_thread_specific<C>& local, uint64_t n, uint64_t seed, uint64_t tag, Body&& body) {
+    constexpr uint64_t chunk = 4096;
+    tbb::parallel_for(tbb::blocked_range<uint64_t>(0, (n + chunk - 1) / chunk), [&](const auto& range) {
+        C& c = local.local();
+        accel::TraceStats st;
+        for (uint64_t ci = range.begin(); ci != range.end(); ++ci) {
+            renderer::Rng rng(seed, tag + ci);
+            for (uint64_t i = ci * chunk; i < std::min(n, (ci + 1) * chunk); ++i) body(c, st, rng, i);
+        }
+    });
+}
+
 /// A surface point as a renderer has it (computed p, error box err), the exact point it
 /// stands for (the same barycentrics evaluated in double), and its triangle.
 struct Endpoint {
@@ -610,69 +620,61 @@ inline Counts measure(const World& w, const accel::Accelerator& acc, const RayBu
     tbb::enumerable_thread_specific<Counts> local;
     const double L = 3.0 * w.radius;  // origins well outside the mesh
     const float scene_scale = float(2.0 * w.radius);
-    const uint64_t chunk = 4096;
 
     // (a) leaks at edges and vertices.
     if (!w.edges.empty() || !w.vertices.empty()) {
         const uint64_t n = budget.leak;
-        tbb::parallel_for(tbb::blocked_range<uint64_t>(0, (n + chunk - 1) / chunk), [&](const auto& range) {
-            Counts& c = local.local();
-            accel::TraceStats st;
-            std::vector<Vec3d> normals;
-            for (uint64_t ci = range.begin(); ci != range.end(); ++ci) {
-                renderer::Rng rng(seed, 0x1EA4000000ull + ci);
-                for (uint64_t i = ci * chunk; i < std::min(n, (ci + 1) * chunk); ++i) {
-                    Vec3d target, d(0.0);
-                    const bool vertex = w.edges.empty() || (!w.vertices.empty() && (i & 1));
-                    bool axis = false;
-                    // A fan no direction sees all faces of from the front (folded by
-                    // rounding where the mesh collapses) is redrawn, so that the budget
-                    // counts rays cast, not attempts.
-                    for (int attempt = 0; attempt < 16 && d == Vec3d(0.0); ++attempt) {
-                        normals.clear();
-                        if (vertex) {
-                            const uint32_t vi = w.vertices[rng.next_u32() % w.vertices.size()];
-                            target = Vec3d(w.pos[vi]);
-                            for (uint32_t t : w.fan[vi]) normals.push_back(w.unit_normal[t]);
-                        } else {
-                            const World::Edge& e = w.edges[rng.next_u32() % w.edges.size()];
-                            const Vec3d a(w.pos[e.a]), b(w.pos[e.b]);
-                            target = a + (b - a) * rnd(rng);  // exact point of the edge, in double
-                            normals = {w.unit_normal[e.t0], w.unit_normal[e.t1]};
-                        }
-                        d = front_direction(normals, rng, axis, vertex);
-                    }
-                    if (d == Vec3d(0.0)) continue;
-                    float t_at;
-                    const accel::Ray ray = ray_at(target, d, L, t_at);
-                    accel::Hit h;
-                    // Slack past the target: the rounding of org and dir.
-                    const bool hit = acc.intersect(ray, h, st) && h.t <= t_at * (1.0f + 1e-3f);
-                    ++c.leak_rays;
-                    c.axis_rays += axis;
-                    c.vertex_rays += vertex;
-                    if (!hit && std::getenv("EXTREMES_DEBUG")) {
-                        std::vector<uint32_t> fan_tris;
-                        if (vertex) {
-                            for (uint32_t vi = 0; vi < w.num_vertices; ++vi)
-                                if (Vec3d(w.pos[vi]) == target) { fan_tris = w.fan[vi]; break; }
-                        }
-                        std::fprintf(stderr, "leak %s %s vertex=%d axis=%d org=(%.9g %.9g %.9g) dir=(%g %g %g) target=(%.12g %.12g %.12g) t_at=%g\n",
-                                     g_debug_label.c_str(), w.name.c_str(), int(vertex), int(axis), ray.org.x, ray.org.y, ray.org.z, ray.dir.x,
-                                     ray.dir.y, ray.dir.z, target.x, target.y, target.z, t_at);
-                        const Vec3d miss = Vec3d(ray.org) + Vec3d(ray.dir) - target;
-                        std::fprintf(stderr, "   miss (%g %g %g) hit=%d t=%g prim=%u\n", miss.x, miss.y, miss.z, int(acc.intersect(ray, h, st)), h.t, h.prim_id);
-                        for (uint32_t t : fan_tris) {
-                            RefHit rh = ref_intersect(Vec3d(ray.org), Vec3d(ray.dir), w.v(t, 0), w.v(t, 1), w.v(t, 2));
-                            std::fprintf(stderr, "   fan tri %u ref t=%.9g margin=%g\n", t, rh.t, rh.margin);
-                        }
-                    }
-                    if (!hit) {
-                        ++c.leaks;
-                        c.axis_leaks += axis;
-                        c.vertex_leaks += vertex;
-                    }
+        for_each_ray(local, n, seed, 0x1EA4000000ull, [&](auto& c, accel::TraceStats& st, renderer::Rng& rng, uint64_t i) {
+            thread_local std::vector<Vec3d> normals;  // scratch, reused per thread
+            Vec3d target, d(0.0);
+            const bool vertex = w.edges.empty() || (!w.vertices.empty() && (i & 1));
+            bool axis = false;
+            // A fan no direction sees all faces of from the front (folded by
+            // rounding where the mesh collapses) is redrawn, so that the budget
+            // counts rays cast, not attempts.
+            for (int attempt = 0; attempt < 16 && d == Vec3d(0.0); ++attempt) {
+                normals.clear();
+                if (vertex) {
+                    const uint32_t vi = w.vertices[rng.next_u32() % w.vertices.size()];
+                    target = Vec3d(w.pos[vi]);
+                    for (uint32_t t : w.fan[vi]) normals.push_back(w.unit_normal[t]);
+                } else {
+                    const World::Edge& e = w.edges[rng.next_u32() % w.edges.size()];
+                    const Vec3d a(w.pos[e.a]), b(w.pos[e.b]);
+                    target = a + (b - a) * rnd(rng);  // exact point of the edge, in double
+                    normals = {w.unit_normal[e.t0], w.unit_normal[e.t1]};
                 }
+                d = front_direction(normals, rng, axis, vertex);
+            }
+            if (d == Vec3d(0.0)) return;
+            float t_at;
+            const accel::Ray ray = ray_at(target, d, L, t_at);
+            accel::Hit h;
+            // Slack past the target: the rounding of org and dir.
+            const bool hit = acc.intersect(ray, h, st) && h.t <= t_at * (1.0f + 1e-3f);
+            ++c.leak_rays;
+            c.axis_rays += axis;
+            c.vertex_rays += vertex;
+            if (!hit && std::getenv("EXTREMES_DEBUG")) {
+                std::vector<uint32_t> fan_tris;
+                if (vertex) {
+                    for (uint32_t vi = 0; vi < w.num_vertices; ++vi)
+                        if (Vec3d(w.pos[vi]) == target) { fan_tris = w.fan[vi]; break; }
+                }
+                std::fprintf(stderr, "leak %s %s vertex=%d axis=%d org=(%.9g %.9g %.9g) dir=(%g %g %g) target=(%.12g %.12g %.12g) t_at=%g\n",
+                             g_debug_label.c_str(), w.name.c_str(), int(vertex), int(axis), ray.org.x, ray.org.y, ray.org.z, ray.dir.x,
+                             ray.dir.y, ray.dir.z, target.x, target.y, target.z, t_at);
+                const Vec3d miss = Vec3d(ray.org) + Vec3d(ray.dir) - target;
+                std::fprintf(stderr, "   miss (%g %g %g) hit=%d t=%g prim=%u\n", miss.x, miss.y, miss.z, int(acc.intersect(ray, h, st)), h.t, h.prim_id);
+                for (uint32_t t : fan_tris) {
+                    RefHit rh = ref_intersect(Vec3d(ray.org), Vec3d(ray.dir), w.v(t, 0), w.v(t, 1), w.v(t, 2));
+                    std::fprintf(stderr, "   fan tri %u ref t=%.9g margin=%g\n", t, rh.t, rh.margin);
+                }
+            }
+            if (!hit) {
+                ++c.leaks;
+                c.axis_leaks += axis;
+                c.vertex_leaks += vertex;
             }
         });
     }
@@ -680,113 +682,106 @@ inline Counts measure(const World& w, const accel::Accelerator& acc, const RayBu
     // (b) acne.
     {
         const uint64_t n = budget.acne;
-        tbb::parallel_for(tbb::blocked_range<uint64_t>(0, (n + chunk - 1) / chunk), [&](const auto& range) {
-            Counts& c = local.local();
-            accel::TraceStats st;
-            for (uint64_t ci = range.begin(); ci != range.end(); ++ci) {
-                renderer::Rng rng(seed, 0xAC4E000000ull + ci);
-                for (uint64_t i = ci * chunk; i < std::min(n, (ci + 1) * chunk); ++i) {
-                    // A primary ray: from outside toward a random surface point, or from
-                    // the centre outward (inner side of closed meshes).
-                    const uint32_t tri = rng.next_u32() % w.num_tris;
-                    if (w.degenerate[tri]) continue;
-                    double a = rnd(rng), b = rnd(rng);
-                    if (a + b > 1) { a = 1 - a; b = 1 - b; }
-                    const Vec3d tp = Vec3d(w.v(tri, 0)) * (1 - a - b) + Vec3d(w.v(tri, 1)) * a + Vec3d(w.v(tri, 2)) * b;
-                    accel::Ray pr;
-                    if (i & 1) {
-                        pr.org = Vec3f(w.center);
-                        pr.dir = Vec3f(tp) - pr.org;
-                    } else {
-                        const Vec3d d = rand_dir(rng);
-                        float t_at;
-                        pr = ray_at(tp, d, L, t_at);
+        for_each_ray(local, n, seed, 0xAC4E000000ull, [&](auto& c, accel::TraceStats& st, renderer::Rng& rng, uint64_t i) {
+            // A primary ray: from outside toward a random surface point, or from
+            // the centre outward (inner side of closed meshes).
+            const uint32_t tri = rng.next_u32() % w.num_tris;
+            if (w.degenerate[tri]) return;
+            double a = rnd(rng), b = rnd(rng);
+            if (a + b > 1) { a = 1 - a; b = 1 - b; }
+            const Vec3d tp = Vec3d(w.v(tri, 0)) * (1 - a - b) + Vec3d(w.v(tri, 1)) * a + Vec3d(w.v(tri, 2)) * b;
+            accel::Ray pr;
+            if (i & 1) {
+                pr.org = Vec3f(w.center);
+                pr.dir = Vec3f(tp) - pr.org;
+            } else {
+                const Vec3d d = rand_dir(rng);
+                float t_at;
+                pr = ray_at(tp, d, L, t_at);
+            }
+            if (!accel::is_finite(pr.dir) || pr.dir == Vec3f(0.0f)) return;
+            accel::Hit h;
+            if (!acc.intersect(pr, h, st)) return;
+            const Endpoint ep = make_endpoint(w, h.prim_id, h.u, h.v);
+            const Vec3f p = ep.p, perr = ep.err;
+            Vec3f ng = Vec3f(w.unit_normal[h.prim_id]);
+            if (accel::dot(ng, pr.dir) > 0) ng = -ng;  // the side the ray arrived on
+            const bool outward = w.convex && is_convex_side_outside(w, p, ng);
+            const Vec3f wi = renderer::to_world(
+                renderer::cosine_hemisphere(rng.next_float(), rng.next_float()), ng);
+            if (!(accel::dot(wi, ng) > 0)) return;
+            // Second point of the mutually visible pair on convex meshes: any
+            // other inner point.
+            Endpoint eq{};
+            Vec3f nq;
+            bool have_q = false;
+            if (w.convex && !outward) {
+                const uint32_t t2 = rng.next_u32() % w.num_tris;
+                if (!w.degenerate[t2]) {
+                    float a2 = rng.next_float(), b2 = rng.next_float();
+                    if (a2 + b2 > 1) { a2 = 1 - a2; b2 = 1 - b2; }
+                    eq = make_endpoint(w, t2, a2, b2);
+                    nq = Vec3f(w.unit_normal[t2]);
+                    if (is_convex_side_outside(w, eq.p, nq)) nq = -nq;
+                    have_q = t2 != h.prim_id;
+                }
+            }
+            for (int m = 0; m < 2; ++m) {
+                const OffsetMode mode = kModes[m];
+                const accel::Ray ray = renderer::spawn_ray(p, perr, ng, wi, scene_scale, mode);
+                accel::Hit h2;
+                ++c.hemi_rays[m];
+                const bool hemi_hit = acc.intersect(ray, h2, st);
+                Verdict hv = Verdict::Clear;
+                if (hemi_hit) {
+                    const RefHit rx = ref_intersect(ep.exact, Vec3d(wi), w.v(h2.prim_id, 0),
+                                                    w.v(h2.prim_id, 1), w.v(h2.prim_id, 2));
+                    if (own_surface(w, h2.prim_id, ep)) {
+                        hv = Verdict::False;
+                    } else if (rx.plane && rx.margin >= 0 && rx.t > 0) {
+                        // The exact ray from the exact point hits it too.
+                    } else if (touches_box(w, h2.prim_id, ep)) {
+                        // A neighbour whose plane passes within reach of p (p sits
+                        // within rounding of an edge): from some point of p's
+                        // box the exact ray hits it too.
+                        hv = Verdict::Ambiguous;
+                    } else if (outward) {
+                        hv = Verdict::False;  // left a convex mesh, yet hit it
+                    } else if (double(h2.t) * accel::length(Vec3d(wi)) < 1e-3 * w.radius) {
+                        // Near the origin, and the exact ray misses the triangle by
+                        // more than a hair: the float ray found a surface that is
+                        // not there.
+                        if (!(rx.plane && rx.margin > -1e-6 && rx.t > 0)) hv = Verdict::False;
                     }
-                    if (!accel::is_finite(pr.dir) || pr.dir == Vec3f(0.0f)) continue;
-                    accel::Hit h;
-                    if (!acc.intersect(pr, h, st)) continue;
-                    const Endpoint ep = make_endpoint(w, h.prim_id, h.u, h.v);
-                    const Vec3f p = ep.p, perr = ep.err;
-                    Vec3f ng = Vec3f(w.unit_normal[h.prim_id]);
-                    if (accel::dot(ng, pr.dir) > 0) ng = -ng;  // the side the ray arrived on
-                    const bool outward = w.convex && is_convex_side_outside(w, p, ng);
-                    const Vec3f wi = renderer::to_world(
-                        renderer::cosine_hemisphere(rng.next_float(), rng.next_float()), ng);
-                    if (!(accel::dot(wi, ng) > 0)) continue;
-                    // Second point of the mutually visible pair on convex meshes: any
-                    // other inner point.
-                    Endpoint eq{};
-                    Vec3f nq;
-                    bool have_q = false;
-                    if (w.convex && !outward) {
-                        const uint32_t t2 = rng.next_u32() % w.num_tris;
-                        if (!w.degenerate[t2]) {
-                            float a2 = rng.next_float(), b2 = rng.next_float();
-                            if (a2 + b2 > 1) { a2 = 1 - a2; b2 = 1 - b2; }
-                            eq = make_endpoint(w, t2, a2, b2);
-                            nq = Vec3f(w.unit_normal[t2]);
-                            if (is_convex_side_outside(w, eq.p, nq)) nq = -nq;
-                            have_q = t2 != h.prim_id;
-                        }
-                    }
-                    for (int m = 0; m < 2; ++m) {
-                        const OffsetMode mode = kModes[m];
-                        const accel::Ray ray = renderer::spawn_ray(p, perr, ng, wi, scene_scale, mode);
-                        accel::Hit h2;
-                        ++c.hemi_rays[m];
-                        const bool hemi_hit = acc.intersect(ray, h2, st);
-                        Verdict hv = Verdict::Clear;
-                        if (hemi_hit) {
-                            const RefHit rx = ref_intersect(ep.exact, Vec3d(wi), w.v(h2.prim_id, 0),
-                                                            w.v(h2.prim_id, 1), w.v(h2.prim_id, 2));
-                            if (own_surface(w, h2.prim_id, ep)) {
-                                hv = Verdict::False;
-                            } else if (rx.plane && rx.margin >= 0 && rx.t > 0) {
-                                // The exact ray from the exact point hits it too.
-                            } else if (touches_box(w, h2.prim_id, ep)) {
-                                // A neighbour whose plane passes within reach of p (p sits
-                                // within rounding of an edge): from some point of p's
-                                // box the exact ray hits it too.
-                                hv = Verdict::Ambiguous;
-                            } else if (outward) {
-                                hv = Verdict::False;  // left a convex mesh, yet hit it
-                            } else if (double(h2.t) * accel::length(Vec3d(wi)) < 1e-3 * w.radius) {
-                                // Near the origin, and the exact ray misses the triangle by
-                                // more than a hair: the float ray found a surface that is
-                                // not there.
-                                if (!(rx.plane && rx.margin > -1e-6 && rx.t > 0)) hv = Verdict::False;
-                            }
-                        }
-                        c.hemi_false[m] += hv == Verdict::False;
-                        c.hemi_ambiguous[m] += hv == Verdict::Ambiguous;
-                        if (hv == Verdict::False && m == 0 && std::getenv("EXTREMES_DEBUG"))
-                            std::fprintf(stderr, "hemi-false %s %s src=%u hit=%u t=%g outward=%d p=(%.9g %.9g %.9g) perr=(%g %g %g) ng=(%g %g %g) wi=(%g %g %g)\n",
-                                         g_debug_label.c_str(), w.name.c_str(), h.prim_id, h2.prim_id, h2.t, int(outward), p.x, p.y, p.z,
-                                         perr.x, perr.y, perr.z, ng.x, ng.y, ng.z, wi.x, wi.y, wi.z);
-                        // Shadow segment back from where the hemisphere ray landed (a
-                        // mutually visible pair), both ends with their surface normals, as
-                        // the renderer spawns segments to surfaces and to area lights
-                        // (renderer::LightSample carries the light's normal; point lights
-                        // are exact points). What a segment without the target's normal
-                        // costs is measured in tests/stability (Lights.*).
-                        if (hemi_hit && hv == Verdict::Clear) {
-                            const Endpoint e2 = make_endpoint(w, h2.prim_id, h2.u, h2.v);
-                            Vec3f n2 = Vec3f(w.unit_normal[h2.prim_id]);
-                            if (accel::dot(n2, wi) > 0) n2 = -n2;
-                            const accel::Ray sg = renderer::spawn_segment(e2.p, e2.err, n2, p, perr, scene_scale, mode, ng);
-                            ++c.shadow_rays[m];
-                            const Verdict v = classify_segment(w, acc, sg, e2, ep, st);
-                            c.shadow_false[m] += v == Verdict::False;
-                            c.shadow_ambiguous[m] += v == Verdict::Ambiguous;
-                        }
-                        if (have_q) {
-                            const accel::Ray sg = renderer::spawn_segment(p, perr, ng, eq.p, eq.err, scene_scale, mode, nq);
-                            ++c.shadow_rays[m];
-                            const Verdict v = classify_segment(w, acc, sg, ep, eq, st);
-                            c.shadow_false[m] += v == Verdict::False;
-                            c.shadow_ambiguous[m] += v == Verdict::Ambiguous;
-                        }
-                    }
+                }
+                c.hemi_false[m] += hv == Verdict::False;
+                c.hemi_ambiguous[m] += hv == Verdict::Ambiguous;
+                if (hv == Verdict::False && m == 0 && std::getenv("EXTREMES_DEBUG"))
+                    std::fprintf(stderr, "hemi-false %s %s src=%u hit=%u t=%g outward=%d p=(%.9g %.9g %.9g) perr=(%g %g %g) ng=(%g %g %g) wi=(%g %g %g)\n",
+                                 g_debug_label.c_str(), w.name.c_str(), h.prim_id, h2.prim_id, h2.t, int(outward), p.x, p.y, p.z,
+                                 perr.x, perr.y, perr.z, ng.x, ng.y, ng.z, wi.x, wi.y, wi.z);
+                // Shadow segment back from where the hemisphere ray landed (a
+                // mutually visible pair), both ends with their surface normals, as
+                // the renderer spawns segments to surfaces and to area lights
+                // (renderer::LightSample carries the light's normal; point lights
+                // are exact points). What a segment without the target's normal
+                // costs is measured in tests/stability (Lights.*).
+                if (hemi_hit && hv == Verdict::Clear) {
+                    const Endpoint e2 = make_endpoint(w, h2.prim_id, h2.u, h2.v);
+                    Vec3f n2 = Vec3f(w.unit_normal[h2.prim_id]);
+                    if (accel::dot(n2, wi) > 0) n2 = -n2;
+                    const accel::Ray sg = renderer::spawn_segment(e2.p, e2.err, n2, p, perr, scene_scale, mode, ng);
+                    ++c.shadow_rays[m];
+                    const Verdict v = classify_segment(w, acc, sg, e2, ep, st);
+                    c.shadow_false[m] += v == Verdict::False;
+                    c.shadow_ambiguous[m] += v == Verdict::Ambiguous;
+                }
+                if (have_q) {
+                    const accel::Ray sg = renderer::spawn_segment(p, perr, ng, eq.p, eq.err, scene_scale, mode, nq);
+                    ++c.shadow_rays[m];
+                    const Verdict v = classify_segment(w, acc, sg, ep, eq, st);
+                    c.shadow_false[m] += v == Verdict::False;
+                    c.shadow_ambiguous[m] += v == Verdict::Ambiguous;
                 }
             }
         });
@@ -796,72 +791,65 @@ inline Counts measure(const World& w, const accel::Accelerator& acc, const RayBu
     // points of triangles.
     {
         const uint64_t n = budget.ref;
-        tbb::parallel_for(tbb::blocked_range<uint64_t>(0, (n + chunk - 1) / chunk), [&](const auto& range) {
-            Counts& c = local.local();
-            accel::TraceStats st;
-            for (uint64_t ci = range.begin(); ci != range.end(); ++ci) {
-                renderer::Rng rng(seed, 0x4EF0000000ull + ci);
-                for (uint64_t i = ci * chunk; i < std::min(n, (ci + 1) * chunk); ++i) {
-                    const uint32_t tri = rng.next_u32() % w.num_tris;
-                    if (w.degenerate[tri]) continue;
-                    // Uniform in the triangle, shrunk toward the centroid: every
-                    // barycentric >= 0.05.
-                    double a = rnd(rng), b = rnd(rng);
-                    if (a + b > 1) { a = 1 - a; b = 1 - b; }
-                    a = 1.0 / 3 + 0.85 * (a - 1.0 / 3);
-                    b = 1.0 / 3 + 0.85 * (b - 1.0 / 3);
-                    const Vec3d tp = Vec3d(w.v(tri, 0)) * (1 - a - b) + Vec3d(w.v(tri, 1)) * a + Vec3d(w.v(tri, 2)) * b;
-                    const Vec3d n = w.unit_normal[tri];
-                    Vec3d d;
-                    const uint32_t kind = i % 3;
-                    if (kind == 0) {
-                        d = rand_dir(rng);
-                    } else if (kind == 1) {
-                        // Grazing: tilt 1e-1 .. 1e-6 out of the plane.
-                        Vec3d t = accel::cross(n, std::abs(n.x) > 0.5 ? Vec3d(0, 1, 0) : Vec3d(1, 0, 0));
-                        t = t / accel::length(t);
-                        const Vec3d bt = accel::cross(n, t);
-                        const double phi = 2 * M_PI * rnd(rng), tilt = std::pow(10.0, -1.0 - 5.0 * rnd(rng));
-                        d = t * std::cos(phi) + bt * std::sin(phi) + n * ((rng.next_u32() & 1) ? tilt : -tilt);
-                        d = d / accel::length(d);
-                        ++c.grazing_rays;
-                    } else {
-                        d = Vec3d(0.0);
-                        const int k = int(rng.next_u32() % 3);
-                        d[k] = (rng.next_u32() & 1) ? 1.0 : -1.0;
-                    }
-                    float t_at;
-                    const accel::Ray ray = ray_at(tp, d, L, t_at);
-                    const RefHit ref = ref_intersect(Vec3d(ray.org), Vec3d(ray.dir), w.v(tri, 0), w.v(tri, 1),
-                                                     w.v(tri, 2));
-                    const RefBound rb = ref_bound(Vec3d(ray.org), Vec3d(ray.dir), w.v(tri, 0), w.v(tri, 1),
-                                                  w.v(tri, 2));
-                    // Only rays float can decide: inside by more than twice the edge
-                    // functions' error bound, in front of the origin by more than t's.
-                    if (!(ref.plane && rb.decidable_inside && ref.t > 2 * rb.delta_t)) continue;
-                    ++c.ref_rays;
-                    accel::Hit h;
-                    const bool hit = acc.intersect(ray, h, st);
-                    // A miss, or a nearest hit beyond this triangle: the ray went through it.
-                    if (!hit || (h.prim_id != tri && double(h.t) > ref.t + 2 * rb.delta_t)) {
-                        if (std::getenv("EXTREMES_DEBUG"))
-                            std::fprintf(stderr, "wmiss %s %s kind=%u tri=%u hit=%d ht=%g hprim=%u ref.t=%g dt=%g org=(%a %a %a) dir=(%a %a %a)\n",
-                                         g_debug_label.c_str(), w.name.c_str(), kind, tri, int(hit), h.t, h.prim_id, ref.t, rb.delta_t,
-                                         ray.org.x, ray.org.y, ray.org.z, ray.dir.x, ray.dir.y, ray.dir.z);
-                        ++c.wrong_miss;
-                        continue;
-                    }
-                    if (h.prim_id != tri) continue;  // something in front: fine, not comparable
-                    ++c.ref_compared;
-                    const double dt = std::abs(double(h.t) - ref.t);
-                    c.max_t_over_bound = std::max(c.max_t_over_bound, dt / rb.delta_t);
-                    if (kind == 1) {
-                        c.max_rel_t_grazing = std::max(c.max_rel_t_grazing, dt / ref.t);
-                    } else {
-                        c.max_rel_t = std::max(c.max_rel_t, dt / ref.t);
-                        c.max_bary = std::max({c.max_bary, std::abs(double(h.u) - ref.u), std::abs(double(h.v) - ref.v)});
-                    }
-                }
+        for_each_ray(local, n, seed, 0x4EF0000000ull, [&](auto& c, accel::TraceStats& st, renderer::Rng& rng, uint64_t i) {
+            const uint32_t tri = rng.next_u32() % w.num_tris;
+            if (w.degenerate[tri]) return;
+            // Uniform in the triangle, shrunk toward the centroid: every
+            // barycentric >= 0.05.
+            double a = rnd(rng), b = rnd(rng);
+            if (a + b > 1) { a = 1 - a; b = 1 - b; }
+            a = 1.0 / 3 + 0.85 * (a - 1.0 / 3);
+            b = 1.0 / 3 + 0.85 * (b - 1.0 / 3);
+            const Vec3d tp = Vec3d(w.v(tri, 0)) * (1 - a - b) + Vec3d(w.v(tri, 1)) * a + Vec3d(w.v(tri, 2)) * b;
+            const Vec3d n = w.unit_normal[tri];
+            Vec3d d;
+            const uint32_t kind = i % 3;
+            if (kind == 0) {
+                d = rand_dir(rng);
+            } else if (kind == 1) {
+                // Grazing: tilt 1e-1 .. 1e-6 out of the plane.
+                Vec3d t = accel::cross(n, std::abs(n.x) > 0.5 ? Vec3d(0, 1, 0) : Vec3d(1, 0, 0));
+                t = t / accel::length(t);
+                const Vec3d bt = accel::cross(n, t);
+                const double phi = 2 * M_PI * rnd(rng), tilt = std::pow(10.0, -1.0 - 5.0 * rnd(rng));
+                d = t * std::cos(phi) + bt * std::sin(phi) + n * ((rng.next_u32() & 1) ? tilt : -tilt);
+                d = d / accel::length(d);
+                ++c.grazing_rays;
+            } else {
+                d = Vec3d(0.0);
+                const int k = int(rng.next_u32() % 3);
+                d[k] = (rng.next_u32() & 1) ? 1.0 : -1.0;
+            }
+            float t_at;
+            const accel::Ray ray = ray_at(tp, d, L, t_at);
+            const RefHit ref = ref_intersect(Vec3d(ray.org), Vec3d(ray.dir), w.v(tri, 0), w.v(tri, 1),
+                                             w.v(tri, 2));
+            const RefBound rb = ref_bound(Vec3d(ray.org), Vec3d(ray.dir), w.v(tri, 0), w.v(tri, 1),
+                                          w.v(tri, 2));
+            // Only rays float can decide: inside by more than twice the edge
+            // functions' error bound, in front of the origin by more than t's.
+            if (!(ref.plane && rb.decidable_inside && ref.t > 2 * rb.delta_t)) return;
+            ++c.ref_rays;
+            accel::Hit h;
+            const bool hit = acc.intersect(ray, h, st);
+            // A miss, or a nearest hit beyond this triangle: the ray went through it.
+            if (!hit || (h.prim_id != tri && double(h.t) > ref.t + 2 * rb.delta_t)) {
+                if (std::getenv("EXTREMES_DEBUG"))
+                    std::fprintf(stderr, "wmiss %s %s kind=%u tri=%u hit=%d ht=%g hprim=%u ref.t=%g dt=%g org=(%a %a %a) dir=(%a %a %a)\n",
+                                 g_debug_label.c_str(), w.name.c_str(), kind, tri, int(hit), h.t, h.prim_id, ref.t, rb.delta_t,
+                                 ray.org.x, ray.org.y, ray.org.z, ray.dir.x, ray.dir.y, ray.dir.z);
+                ++c.wrong_miss;
+                return;
+            }
+            if (h.prim_id != tri) return;  // something in front: fine, not comparable
+            ++c.ref_compared;
+            const double dt = std::abs(double(h.t) - ref.t);
+            c.max_t_over_bound = std::max(c.max_t_over_bound, dt / rb.delta_t);
+            if (kind == 1) {
+                c.max_rel_t_grazing = std::max(c.max_rel_t_grazing, dt / ref.t);
+            } else {
+                c.max_rel_t = std::max(c.max_rel_t, dt / ref.t);
+                c.max_bary = std::max({c.max_bary, std::abs(double(h.u) - ref.u), std::abs(double(h.v) - ref.v)});
             }
         });
     }
@@ -918,41 +906,33 @@ inline WallCounts measure_thin_wall(const World& w, double thickness, const acce
     const float scene_scale = float(2.0 * w.radius);
     const double s = w.place.scale;
     const Vec3d off = offset_dir() * w.place.offset;
-    const uint64_t chunk = 4096;
-    tbb::parallel_for(tbb::blocked_range<uint64_t>(0, (n + chunk - 1) / chunk), [&](const auto& range) {
-        WallCounts& c = local.local();
-        accel::TraceStats st;
-        for (uint64_t ci = range.begin(); ci != range.end(); ++ci) {
-            renderer::Rng rng(seed, 0x3A1100000ull + ci);
-            for (uint64_t i = ci * chunk; i < std::min(n, (ci + 1) * chunk); ++i) {
-                // Floor point at distance dx from the wall's face x = 0, as barycentrics of
-                // the floor triangle that holds it.
-                const double dx = 0.5 * std::pow(10.0, -6.0 * rnd(rng));
-                const Vec3d local(-dx, rnd(rng) - 0.5, 0.0);
-                const uint32_t tri = local.y > local.x ? 1 : 0;  // diagonal (-1,-1)-(1,1)
-                const Vec3d a(w.v(tri, 0)), b(w.v(tri, 1)), cc(w.v(tri, 2));
-                const Vec3d x = local * s + off;
-                // Solve x = a + u (b - a) + v (c - a) in the floor plane (z is constant).
-                const double det = (b.x - a.x) * (cc.y - a.y) - (b.y - a.y) * (cc.x - a.x);
-                if (det == 0) continue;
-                const double u = ((x.x - a.x) * (cc.y - a.y) - (x.y - a.y) * (cc.x - a.x)) / det;
-                const double v = ((b.x - a.x) * (x.y - a.y) - (b.y - a.y) * (x.x - a.x)) / det;
-                const Endpoint ep = make_endpoint(w, tri, float(u), float(v));
-                const Vec3f light(Vec3d(thickness + 0.05 + 0.45 * rnd(rng), rnd(rng) - 0.5, 0.1 + 0.4 * rnd(rng)) * s + off);
-                // Within rounding: the exact floor point is within reach of the wall's face.
-                const bool within = std::abs(ep.exact.x - off.x) <= reach(ep);
-                for (int m = 0; m < 2; ++m) {
-                    const accel::Ray sg = renderer::spawn_segment(ep.p, ep.err, Vec3f(0, 0, 1), light, Vec3f(0.0f),
-                                                                  scene_scale, kModes[m]);
-                    ++c.rays[m];
-                    if (!acc.occluded(sg, st)) {
-                        if (m == 0 && std::getenv("EXTREMES_DEBUG"))
-                            std::fprintf(stderr, "wall-leak %s dx=%g within=%d p=(%.9g %.9g %.9g) exact.x-off=%g org=(%.9g %.9g %.9g) tmin=%g tmax=%g light=(%.9g %.9g %.9g)\n",
-                                         g_debug_label.c_str(), dx * s, int(within), ep.p.x, ep.p.y, ep.p.z, ep.exact.x - off.x, sg.org.x, sg.org.y, sg.org.z, sg.t_min, sg.t_max, light.x, light.y, light.z);
-                        ++c.leaks[m];
-                        c.leaks_within[m] += within;
-                    }
-                }
+    for_each_ray(local, n, seed, 0x3A1100000ull, [&](auto& c, accel::TraceStats& st, renderer::Rng& rng, uint64_t) {
+        // Floor point at distance dx from the wall's face x = 0, as barycentrics of
+        // the floor triangle that holds it.
+        const double dx = 0.5 * std::pow(10.0, -6.0 * rnd(rng));
+        const Vec3d local(-dx, rnd(rng) - 0.5, 0.0);
+        const uint32_t tri = local.y > local.x ? 1 : 0;  // diagonal (-1,-1)-(1,1)
+        const Vec3d a(w.v(tri, 0)), b(w.v(tri, 1)), cc(w.v(tri, 2));
+        const Vec3d x = local * s + off;
+        // Solve x = a + u (b - a) + v (c - a) in the floor plane (z is constant).
+        const double det = (b.x - a.x) * (cc.y - a.y) - (b.y - a.y) * (cc.x - a.x);
+        if (det == 0) return;
+        const double u = ((x.x - a.x) * (cc.y - a.y) - (x.y - a.y) * (cc.x - a.x)) / det;
+        const double v = ((b.x - a.x) * (x.y - a.y) - (b.y - a.y) * (x.x - a.x)) / det;
+        const Endpoint ep = make_endpoint(w, tri, float(u), float(v));
+        const Vec3f light(Vec3d(thickness + 0.05 + 0.45 * rnd(rng), rnd(rng) - 0.5, 0.1 + 0.4 * rnd(rng)) * s + off);
+        // Within rounding: the exact floor point is within reach of the wall's face.
+        const bool within = std::abs(ep.exact.x - off.x) <= reach(ep);
+        for (int m = 0; m < 2; ++m) {
+            const accel::Ray sg = renderer::spawn_segment(ep.p, ep.err, Vec3f(0, 0, 1), light, Vec3f(0.0f),
+                                                          scene_scale, kModes[m]);
+            ++c.rays[m];
+            if (!acc.occluded(sg, st)) {
+                if (m == 0 && std::getenv("EXTREMES_DEBUG"))
+                    std::fprintf(stderr, "wall-leak %s dx=%g within=%d p=(%.9g %.9g %.9g) exact.x-off=%g org=(%.9g %.9g %.9g) tmin=%g tmax=%g light=(%.9g %.9g %.9g)\n",
+                                 g_debug_label.c_str(), dx * s, int(within), ep.p.x, ep.p.y, ep.p.z, ep.exact.x - off.x, sg.org.x, sg.org.y, sg.org.z, sg.t_min, sg.t_max, light.x, light.y, light.z);
+                ++c.leaks[m];
+                c.leaks_within[m] += within;
             }
         }
     });

@@ -10,13 +10,8 @@ namespace renderer {
 SceneGeometry::SceneGeometry(const scenes::Scene& scene) : scene_(scene) {
     for (uint32_t i = 0; i < scene.meshes.size(); ++i) {
         const scenes::Mesh& m = scene.meshes[i];
-        accel::GeometryView v;
-        v.type = accel::GeometryType::Triangles;
-        v.positions = m.positions.data();
-        v.num_vertices = m.num_vertices();
-        v.indices = m.indices.data();
-        v.num_prims = m.num_triangles();
-        views_.push_back(v);
+        views_.push_back(accel::GeometryView::triangles(m.positions.data(), m.num_vertices(), m.indices.data(),
+                                                        m.num_triangles()));
         sources_.push_back({GeomSource::Mesh, i});
     }
     if (!scene.spheres.empty()) {
@@ -24,11 +19,7 @@ SceneGeometry::SceneGeometry(const scenes::Scene& scene) : scene_(scene) {
         for (const scenes::Sphere& s : scene.spheres) {
             spheres_.insert(spheres_.end(), {s.center.x, s.center.y, s.center.z, s.radius});
         }
-        accel::GeometryView v;
-        v.type = accel::GeometryType::Spheres;
-        v.spheres = spheres_.data();
-        v.num_prims = uint32_t(scene.spheres.size());
-        views_.push_back(v);
+        views_.push_back(accel::GeometryView::sphere_list(spheres_.data(), uint32_t(scene.spheres.size())));
         sources_.push_back({GeomSource::Spheres, 0});
     }
 }

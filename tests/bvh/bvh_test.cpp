@@ -36,13 +36,7 @@ struct Mesh {
     void tri(uint32_t a, uint32_t b, uint32_t c) { idx.insert(idx.end(), {a, b, c}); }
     GeometryView view() {
         if (pos.size() == nverts) pos.push_back(Vec3f(0.0f));  // padding
-        GeometryView v;
-        v.type = GeometryType::Triangles;
-        v.positions = pos.data();
-        v.num_vertices = nverts;
-        v.indices = idx.data();
-        v.num_prims = uint32_t(idx.size() / 3);
-        return v;
+        return GeometryView::triangles(pos.data(), nverts, idx.data(), uint32_t(idx.size() / 3));
     }
 };
 
@@ -98,13 +92,7 @@ Mesh soup(int n, float size, uint32_t seed) {
 
 struct Spheres {
     std::vector<float> data;
-    GeometryView view() {
-        GeometryView v;
-        v.type = GeometryType::Spheres;
-        v.spheres = data.data();
-        v.num_prims = uint32_t(data.size() / 4);
-        return v;
-    }
+    GeometryView view() { return GeometryView::sphere_list(data.data(), uint32_t(data.size() / 4)); }
 };
 
 Spheres random_spheres(int n, uint32_t seed) {

@@ -37,25 +37,13 @@ struct TestMesh {
         positions.push_back(Vec3f(0.0f));
     }
     GeometryView view() const {
-        GeometryView v;
-        v.type = GeometryType::Triangles;
-        v.positions = positions.data();
-        v.num_vertices = num_vertices;
-        v.indices = indices.data();
-        v.num_prims = uint32_t(indices.size() / 3);
-        return v;
+        return GeometryView::triangles(positions.data(), num_vertices, indices.data(), uint32_t(indices.size() / 3));
     }
 };
 
 struct TestSpheres {
     std::vector<float> xyzr;
-    GeometryView view() const {
-        GeometryView v;
-        v.type = GeometryType::Spheres;
-        v.spheres = xyzr.data();
-        v.num_prims = uint32_t(xyzr.size() / 4);
-        return v;
-    }
+    GeometryView view() const { return GeometryView::sphere_list(xyzr.data(), uint32_t(xyzr.size() / 4)); }
 };
 
 Vec3f random_in_box(std::mt19937& rng, const Vec3f& lo, const Vec3f& hi) {

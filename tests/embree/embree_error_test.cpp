@@ -20,16 +20,8 @@ struct Quad {
     std::vector<uint32_t> indices{0, 1, 2, 0, 2, 3};
     std::vector<float> spheres{0, 0, 3, 0.5f};
     std::vector<GeometryView> views() const {
-        GeometryView t;
-        t.positions = positions.data();
-        t.num_vertices = 4;
-        t.indices = indices.data();
-        t.num_prims = 2;
-        GeometryView s;
-        s.type = GeometryType::Spheres;
-        s.spheres = spheres.data();
-        s.num_prims = 1;
-        return {t, s};
+        return {GeometryView::triangles(positions.data(), 4, indices.data(), 2),
+                GeometryView::sphere_list(spheres.data(), 1)};
     }
 };
 

@@ -203,17 +203,8 @@ TEST(Naive, ClosestHitOcclusionAndStats) {
                               {0, 0, 0}, {0, 0, 0}};                   // degenerate + padding
     std::vector<uint32_t> idx = {0, 1, 2, 3, 4, 5, 6, 6, 6, 0, 1, 99};  // last: out of range
     std::vector<float> spheres = {0, 0, -5, 1};
-    GeometryView tri;
-    tri.type = GeometryType::Triangles;
-    tri.positions = pos.data();
-    tri.num_vertices = 7;
-    tri.indices = idx.data();
-    tri.num_prims = 4;
-    GeometryView sph;
-    sph.type = GeometryType::Spheres;
-    sph.spheres = spheres.data();
-    sph.num_prims = 1;
-    std::vector<GeometryView> views{tri, sph};
+    std::vector<GeometryView> views{GeometryView::triangles(pos.data(), 7, idx.data(), 4),
+                                    GeometryView::sphere_list(spheres.data(), 1)};
     for (TriangleTest test : {TriangleTest::Fast, TriangleTest::Watertight}) {
         AccelOptions o;
         o.triangle = test;
