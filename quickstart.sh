@@ -10,9 +10,12 @@ PACKAGES=(
   cmake ninja-build g++ pkg-config
   libembree-dev libtbb-dev
   libopenimageio-dev libopenexr-dev libopencolorio-dev
+  openimageio-tools  # Debian's OpenImageIO CMake config imports iconvert, oiiotool, ... from here
   python3-imath   # Debian's Imath CMake config references its Python binding library
   libtinygltf-dev libpugixml-dev
   libcli11-dev libfmt-dev libgtest-dev libgmock-dev libbenchmark-dev
+  libdraco-dev                 # KHR_draco_mesh_compression in glTF files
+  libopenmpi-dev openmpi-bin   # optional at configure time: mpirun renders across machines
 )
 BUILD_DIR=${PT_BUILD_DIR:-build}
 JOBS=${PT_JOBS:-$(nproc)}
@@ -39,6 +42,11 @@ build() {
 }
 
 case "${1:-}" in
+  packages)
+    # The install list, one a line: tests/deps checks that every file CMake imports is
+    # owned by one of these packages or by one of their dependencies.
+    printf '%s\n' "${PACKAGES[@]}"
+    ;;
   render)
     install_missing
     build
@@ -52,7 +60,7 @@ case "${1:-}" in
     ctest --test-dir "$BUILD_DIR" --output-on-failure -j "$JOBS" --timeout 900
     ;;
   *)
-    echo "usage: $0 render|test" >&2
+    echo "usage: $0 render|test|packages" >&2
     exit 2
     ;;
 esac
