@@ -57,15 +57,21 @@ CameraSetup make_camera(const scenes::Scene& scene, CameraMode mode, int width, 
     std::string what;
     if (scene.camera && mode == CameraMode::Course) {
         const scenes::Camera& c = *scene.camera;
-        // The course keeps the sensor distance of an 800x600 window (in pixels), set
-        // from the vertical fov; a W x H render is the central W x H pixels of it.
-        float vfov0 = c.yfov_deg > 0 ? c.yfov_deg
-                      : c.aspect > 0
-                          ? 2.0f * deg(std::atan(std::tan(0.5f * c.xfov_deg * kDegToRad) / c.aspect))
-                          : 2.0f * deg(std::atan(std::tan(0.5f * c.xfov_deg * kDegToRad) * 600.0f / 800.0f));
-        const float screen_dist = 600.0f / (2.0f * std::tan(0.5f * vfov0 * kDegToRad));
-        hfov = 2.0f * deg(std::atan(float(width) / (2.0f * screen_dist)));
-        vfov = 2.0f * deg(std::atan(float(height) / (2.0f * screen_dist)));
+        // The course's Camera::configure sets up an 800x600 window: it takes the file's
+        // xfov and vfov (yfov, else from aspect_ratio) and widens whichever is too narrow
+        // for 800:600. `-r W H` keeps that window's sensor distance, so a W x H render is
+        // its central W x H pixels: tan(hfov'/2) = tan(hfov800/2) * W / 800.
+        constexpr float kWinW = 800.0f, kWinH = 600.0f;
+        float tan_x = std::tan(0.5f * c.xfov_deg * kDegToRad);
+        float tan_y = c.yfov_deg > 0 ? std::tan(0.5f * c.yfov_deg * kDegToRad)
+                      : c.aspect > 0  ? tan_x / c.aspect
+                                      : tan_x * kWinH / kWinW;
+        if (tan_x / tan_y > kWinW / kWinH)
+            tan_y = tan_x * kWinH / kWinW;
+        else
+            tan_x = tan_y * kWinW / kWinH;
+        hfov = 2.0f * deg(std::atan(tan_x * float(width) / kWinW));
+        vfov = 2.0f * deg(std::atan(tan_y * float(height) / kWinH));
         Vec3f dir = c.camera_to_world.transform_point(Vec3f(0.0f, 0.0f, -1.0f));
         dir = accel::length(dir) > 0 ? accel::normalize(dir) : Vec3f(0, 0, 1);
         target = center;

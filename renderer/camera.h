@@ -49,8 +49,9 @@ struct CameraSetup {
 /// Chooses the camera for a W x H image:
 ///  - Course (default for CS184 .dae): the course application's framing (see
 ///    ../shared/scenes/README.md): look at the bounds' centre from 1.5 x the diagonal,
-///    along the camera node's transform applied to (0,0,-1); an 800x600 window whose
-///    sensor distance is kept, so W x H is its central W x H pixels.
+///    along the camera node's transform applied to (0,0,-1); an 800x600 window that
+///    keeps the file's wider fov (xfov, or vfov from yfov/aspect_ratio) and widens the
+///    other to 800:600, whose sensor distance is kept, so W x H is its central W x H pixels.
 ///  - File (default for glTF): the camera node as written.
 ///  - No camera in the file: frame the scene's bounds from the front.
 CameraSetup make_camera(const scenes::Scene& scene, CameraMode mode, int width, int height,
