@@ -359,11 +359,18 @@ private:
         }
         return default_material_;
     }
+    /// The course's extras (spheres, BSDFs, lights) on `parent`: <extra><technique
+    /// profile="CGL">, or "CMU462" as the course's CMU 15-462 predecessor writes the same
+    /// elements. CGL wins when an element carries both.
     pugi::xml_node cgl_technique(pugi::xml_node parent) const {
+        pugi::xml_node cmu;
         for (pugi::xml_node extra : parent.children("extra"))
-            for (pugi::xml_node tech : extra.children("technique"))
-                if (std::strcmp(tech.attribute("profile").value(), "CGL") == 0) return tech;
-        return {};
+            for (pugi::xml_node tech : extra.children("technique")) {
+                const char* profile = tech.attribute("profile").value();
+                if (std::strcmp(profile, "CGL") == 0) return tech;
+                if (!cmu && std::strcmp(profile, "CMU462") == 0) cmu = tech;
+            }
+        return cmu;
     }
     static pugi::xml_node first_element(pugi::xml_node n) {
         for (pugi::xml_node c : n.children())
