@@ -295,7 +295,10 @@ int main(int argc, char** argv) {
         ref.w = width;
         ref.h = height;
         ref.spp = ref_spp;
-        const std::string header = ref_header(name, width, height, ref_spp, base);
+        // The camera is part of the reference: a cached one made with another framing
+        // (before issue 12's course-framing fix) must be rendered again, not reused.
+        std::string header = ref_header(name, width, height, ref_spp, base);
+        header.insert(header.size() - 1, fmt::format(" hfov={:.3f}", w.camera.hfov_deg()));
         const std::string ref_path = fmt::format("{}/{}_{}x{}_{}spp.ref", ref_dir, name, width, height, ref_spp);
         if (quick || !load_ref(ref_path, header, ref)) {
             std::fprintf(stderr, "[tradeoff] %s: rendering the %d spp reference...\n", name.c_str(), ref_spp);
