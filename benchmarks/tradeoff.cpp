@@ -285,7 +285,9 @@ int main(int argc, char** argv) {
         }
         const std::string name = std::filesystem::path(path).stem().string();
         w.geometry = std::make_unique<renderer::SceneGeometry>(w.scene);
-        w.lights = std::make_unique<renderer::LightSet>(w.scene, w.notes);
+        // Mesh semantics: -H and light sampling converge to the same image, so one reference
+        // serves both estimators.
+        w.lights = std::make_unique<renderer::LightSet>(w.scene, renderer::LightModel::Mesh, w.notes);
         // The course's 480x360 framing, rendered at width x height (as the transport tests do).
         renderer::CameraOverrides ov;
         ov.hfov_deg = renderer::make_camera(w.scene, renderer::CameraMode::Auto, 480, 360).camera.hfov_deg();
