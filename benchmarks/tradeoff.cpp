@@ -163,8 +163,9 @@ void make_masks(World& w, Reference& ref, int k) {
 
 /// Cached reference: a tiny header line then raw float32 luminance and variance.
 std::string ref_header(const std::string& scene, int w, int h, int spp, const IntegratorSettings& is) {
-    return fmt::format("tradeoff-ref v1 {} {}x{} spp={} l={} m={} rr={:.3f}\n", scene, w, h, spp, is.light_samples,
-                       is.max_depth, is.rr_continue);
+    // v2: --lights=mesh with two-sided panels (issue 12); v1 references had one-sided ones.
+    return fmt::format("tradeoff-ref v2 {} {}x{} spp={} l={} m={} rr={:.3f} lights=mesh\n", scene, w, h, spp,
+                       is.light_samples, is.max_depth, is.rr_continue);
 }
 
 bool load_ref(const std::string& path, const std::string& header, Reference& ref) {

@@ -156,18 +156,22 @@ protected:
         return rho / M_PI * Le * E;
     }
 
-    World make(bool mesh_light, const IntegratorSettings& is) const {
+    /// The floor lit by the panel mesh, the area light, or both (the CS184 files' two
+    /// descriptions of one light).
+    World make_scene(bool panel, bool rect, LightModel model, bool double_sided, const IntegratorSettings& is) const {
         World s;
         scenes::Material floor;
         floor.albedo = Vec3f(rho);
         scenes::Material light;
         light.emission = Vec3f(Le);
+        light.double_sided = double_sided;
         s.scene.materials = {floor, light};
         s.scene.meshes.push_back(quad({-5, -5, 0}, {5, -5, 0}, {5, 5, 0}, {-5, 5, 0}, 0));
-        if (mesh_light) {
+        if (panel) {
             // Wound to face down (-z): counter-clockwise seen from below.
             s.scene.meshes.push_back(quad({-hw, -hl, h}, {-hw, hl, h}, {hw, hl, h}, {hw, -hl, h}, 1));
-        } else {
+        }
+        if (rect) {
             scenes::Light l;
             l.type = scenes::LightType::Area;
             l.name = "rect";
@@ -178,8 +182,12 @@ protected:
             l.edge_v = {0, 2 * hl, 0};
             s.scene.lights.push_back(l);
         }
+        s.model = model;
         s.build(is);
         return s;
+    }
+    World make(bool mesh_light, const IntegratorSettings& is) const {
+        return make_scene(mesh_light, !mesh_light, LightModel::Mesh, true, is);
     }
     // Seen from the side, low, so the camera ray passes under the light.
     accel::Ray view() const { return ray_to(point + Vec3f(-3.0f, 0.0f, 0.3f), point); }
@@ -238,27 +246,7 @@ TEST(Emitters, DoNotReflect) {
 class LightModels : public FormFactor {
 protected:
     World make_both(LightModel model, bool double_sided, const IntegratorSettings& is) const {
-        World s;
-        scenes::Material floor;
-        floor.albedo = Vec3f(rho);
-        scenes::Material light;
-        light.emission = Vec3f(Le);
-        light.double_sided = double_sided;
-        s.scene.materials = {floor, light};
-        s.scene.meshes.push_back(quad({-5, -5, 0}, {5, -5, 0}, {5, 5, 0}, {-5, 5, 0}, 0));
-        s.scene.meshes.push_back(quad({-hw, -hl, h}, {-hw, hl, h}, {hw, hl, h}, {hw, -hl, h}, 1));
-        scenes::Light l;
-        l.type = scenes::LightType::Area;
-        l.name = "rect";
-        l.radiance = Vec3f(Le);
-        l.position = {0, 0, h};
-        l.direction = {0, 0, -1};
-        l.edge_u = {2 * hw, 0, 0};
-        l.edge_v = {0, 2 * hl, 0};
-        s.scene.lights.push_back(l);
-        s.model = model;
-        s.build(is);
-        return s;
+        return make_scene(true, true, model, double_sided, is);
     }
     // Seen from above the light: a camera ray that meets the panel's back (upper) side.
     accel::Ray from_above() const { return ray_to({0.1f, 0.05f, 2.0f}, {0.15f, -0.1f, h}); }
@@ -299,18 +287,14 @@ TEST_F(LightModels, CourseSamplesOnlyLibraryLights) {
     IntegratorSettings is;
     is.name = "path";
     is.max_depth = 5;
-    World s = make(true, is);  // the panel only
-    s.model = LightModel::Course;
-    s.build(is);
+    World s = make_scene(true, false, LightModel::Course, true, is);  // the panel only
     EXPECT_EQ(s.lights->size(), 0u);
     EXPECT_FALSE(s.lights->has_environment());
     Estimate l = estimate(*s.integrator, *s.accel, view(), 2000, 3);
     EXPECT_EQ(l.mean, 0.0);
     is.name = "direct";
     is.hemisphere = true;
-    World h = make(true, is);
-    h.model = LightModel::Course;
-    h.build(is);
+    World h = make_scene(true, false, LightModel::Course, true, is);
     Estimate eh = estimate(*h.integrator, *h.accel, view(), 40000, 3);
     EXPECT_NEAR(eh.mean, analytic(), 3.0 * eh.se);
 }
