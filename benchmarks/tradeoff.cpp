@@ -163,8 +163,9 @@ void make_masks(World& w, Reference& ref, int k) {
 
 /// Cached reference: a tiny header line then raw float32 luminance and variance.
 std::string ref_header(const std::string& scene, int w, int h, int spp, const IntegratorSettings& is) {
-    return fmt::format("tradeoff-ref v1 {} {}x{} spp={} l={} m={} rr={:.3f}\n", scene, w, h, spp, is.light_samples,
-                       is.max_depth, is.rr_continue);
+    // v2: --lights=mesh with two-sided panels (issue 12); v1 references had one-sided ones.
+    return fmt::format("tradeoff-ref v2 {} {}x{} spp={} l={} m={} rr={:.3f} lights=mesh\n", scene, w, h, spp,
+                       is.light_samples, is.max_depth, is.rr_continue);
 }
 
 bool load_ref(const std::string& path, const std::string& header, Reference& ref) {
@@ -285,7 +286,9 @@ int main(int argc, char** argv) {
         }
         const std::string name = std::filesystem::path(path).stem().string();
         w.geometry = std::make_unique<renderer::SceneGeometry>(w.scene);
-        w.lights = std::make_unique<renderer::LightSet>(w.scene, w.notes);
+        // Mesh semantics: -H and light sampling converge to the same image, so one reference
+        // serves both estimators.
+        w.lights = std::make_unique<renderer::LightSet>(w.scene, renderer::LightModel::Mesh, w.notes);
         // The course's 480x360 framing, rendered at width x height (as the transport tests do).
         renderer::CameraOverrides ov;
         ov.hfov_deg = renderer::make_camera(w.scene, renderer::CameraMode::Auto, 480, 360).camera.hfov_deg();

@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <stdexcept>
 
 #include "renderer/interaction.h"
 #include "renderer/sampling.h"
@@ -42,12 +43,45 @@ Vec3f radiance_of(const scenes::Material& m) { return m.emission; }
 
 }  // namespace
 
-LightSet::LightSet(const scenes::Scene& scene, std::vector<std::string>& notes) : scene_(&scene) {
+LightModel parse_light_model(const std::string& name, scenes::SceneFormat format) {
+    if (name.empty()) return format == scenes::SceneFormat::Collada ? LightModel::Course : LightModel::Mesh;
+    if (name == "course") return LightModel::Course;
+    if (name == "mesh") return LightModel::Mesh;
+    throw std::invalid_argument("unknown light model '" + name + "' (course | mesh)");
+}
+
+const char* light_model_name(LightModel m) { return m == LightModel::Course ? "course" : "mesh"; }
+
+Vec3f LightSet::emitted(const Interaction& it, const Vec3f& wo) const {
+    const scenes::Scene& scene = *scene_;
+    if (it.material >= scene.materials.size()) return Vec3f(0.0f);
+    const scenes::Material& m = scene.materials[it.material];
+    if (!m.is_emissive()) return Vec3f(0.0f);
+    // The course's emission has no side test; in Mesh a one-sided emitter emits toward
+    // its shading normal, the side sample() draws (Tri::n below). Spheres: both sides.
+    const bool two_sided = model_ == LightModel::Course || m.double_sided || it.sphere;
+    if (!two_sided && accel::dot(it.ns, wo) <= 0) return Vec3f(0.0f);
+    return m.emission * texel(scene, m.emission_texture, it.uv);
+}
+
+LightSet::LightSet(const scenes::Scene& scene, LightModel model, std::vector<std::string>& notes)
+    : scene_(&scene), model_(model) {
+    if (model == LightModel::Course && scene.format == scenes::SceneFormat::Gltf) {
+        model_ = LightModel::Mesh;
+        notes.push_back("the course's light semantics apply to COLLADA scenes: this glTF scene uses --lights=mesh");
+    }
+    const bool course = model_ == LightModel::Course;
     // Emissive meshes: one light each, sampled by area over its triangles.
     std::vector<bool> mesh_is_light(scene.meshes.size(), false);
+    bool emissive_surfaces = false;
     for (size_t mi = 0; mi < scene.meshes.size(); ++mi) {
         const scenes::Mesh& m = scene.meshes[mi];
         if (m.material >= scene.materials.size() || !scene.materials[m.material].is_emissive()) continue;
+        // Glow maps (emission textures) glow but, alone, are not taken to light a scene.
+        if (m.uvs.empty() || scene.materials[m.material].emission_texture == scenes::kNoTexture)
+            emissive_surfaces = true;
+        if (course) continue;  // seen by camera and -H rays only (emitted())
+        const bool two_sided = scene.materials[m.material].double_sided;
         Light l{};
         l.kind = Kind::Mesh;
         l.radiance = radiance_of(scene.materials[m.material]);
@@ -68,7 +102,7 @@ LightSet::LightSet(const scenes::Scene& scene, std::vector<std::string>& notes) 
                                   m.normals[m.indices[3 * t + 2]];
                 if (accel::dot(avg, ng) < 0) ng = -ng;
             }
-            tris_.push_back({a, b - a, c - a, ng, uint32_t(mi), t});
+            tris_.push_back({a, b - a, c - a, ng, two_sided, uint32_t(mi), t});
             total += area;
             cdf_.push_back(total);
         }
@@ -81,6 +115,8 @@ LightSet::LightSet(const scenes::Scene& scene, std::vector<std::string>& notes) 
     }
     for (const scenes::Sphere& s : scene.spheres) {
         if (s.material >= scene.materials.size() || !scene.materials[s.material].is_emissive()) continue;
+        emissive_surfaces = true;
+        if (course) continue;
         Light l{};
         l.kind = Kind::Sphere;
         l.radiance = radiance_of(scene.materials[s.material]);
@@ -116,9 +152,14 @@ LightSet::LightSet(const scenes::Scene& scene, std::vector<std::string>& notes) 
                 // Emits toward the file's facing direction.
                 if (accel::dot(n, sl.direction) < 0) n = -n;
                 l.normal = n;
-                notes.push_back(fmt::format("area light '{}' has no emissive geometry: it is sampled for "
-                                            "direct light but invisible to camera and bounce rays (-H)",
-                                            sl.name));
+                notes.push_back(
+                    course ? fmt::format("area light '{}' (--lights=course): sampled for direct light (-l), "
+                                         "front side only, invisible to every ray; emissive meshes are seen "
+                                         "by camera and -H rays only",
+                                         sl.name)
+                           : fmt::format("area light '{}' has no emissive geometry: it is sampled for direct "
+                                         "light but invisible to camera and bounce rays (-H)",
+                                         sl.name));
                 break;
             }
             case scenes::LightType::Point: l.kind = Kind::Point; break;
@@ -146,16 +187,16 @@ LightSet::LightSet(const scenes::Scene& scene, std::vector<std::string>& notes) 
     // A default light when nothing would light the scene: no explicit light and no
     // emitter except glow maps (emission textures, as on glTF models: they glow but do
     // not light their surroundings).
-    bool lit = !scene.lights.empty();
-    for (const Light& l : lights_)
-        if (l.kind != Kind::Mesh || l.texture == scenes::kNoTexture) lit = true;
-    if (!lit) {
+    if (scene.lights.empty() && !emissive_surfaces) {
         Light l{};
         l.kind = Kind::Environment;
         l.radiance = Vec3f(1.0f);
         env_ = int(lights_.size());
         lights_.push_back(l);
-        notes.push_back(lights_.size() == 1
+        bool glow_maps = false;
+        for (const scenes::Mesh& m : scene.meshes)
+            glow_maps |= m.material < scene.materials.size() && scene.materials[m.material].is_emissive();
+        notes.push_back(!glow_maps
                             ? "the scene has no lights: using a constant white environment (radiance 1)"
                             : "the scene has no lights but glow maps: adding a constant white environment "
                               "(radiance 1)");
@@ -208,7 +249,7 @@ bool LightSet::sample(size_t i, const Vec3f& p, const Vec3f& n, Rng& rng, LightS
             // gamma(7) as for a hit point (renderer/interaction.cpp), which also covers the
             // rounding of the stored edges e1 = v1 - v0, e2 = v2 - v0.
             const Vec3f err = (accel::vabs(t.v0) + accel::vabs(ea) + accel::vabs(eb)) * gamma_bound(7);
-            if (!finite_area(q, err, t.n, 1.0f / l.area, false)) return false;
+            if (!finite_area(q, err, t.n, 1.0f / l.area, t.two_sided)) return false;
             if (l.texture != scenes::kNoTexture) {
                 const scenes::Mesh& m = scene_->meshes[t.mesh];
                 const uint32_t* idx = &m.indices[3 * size_t(t.index)];

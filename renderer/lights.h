@@ -14,6 +14,26 @@
 namespace renderer {
 
 using accel::Vec3f;
+struct Interaction;
+
+/// Which surfaces are lights (issue 12, item 3; README "Light semantics").
+///  - Course: the CS184 course exactly. Light sampling (-l) draws only from the file's
+///    explicit lights (library_lights: CGL area lights front side only, point, spot,
+///    directional). Emissive meshes and spheres are seen, from both sides, by camera
+///    rays and by the direct rays of hemisphere sampling (-H), and by nothing else: a
+///    bounce adds only the light sampled at its next vertex. -H and -l converge to
+///    slightly different images, as in the course.
+///  - Mesh: every emissive surface is the light, sampled by area and seen by every ray;
+///    a mesh emits on both sides when its material is double-sided (CS184 files always;
+///    glTF's doubleSided), else on the side its shading normals face. An area light that
+///    describes an emissive panel is counted once, as the mesh. -H and -l converge to
+///    the same image.
+enum class LightModel : uint8_t { Course, Mesh };
+
+/// "course" | "mesh"; "" = the default for the scene's format (course for COLLADA,
+/// mesh for glTF). Throws std::invalid_argument otherwise.
+LightModel parse_light_model(const std::string& name, scenes::SceneFormat format);
+const char* light_model_name(LightModel m);
 
 struct LightSample {
     Vec3f radiance;       ///< emitted radiance (area) or intensity-derived radiance (delta)
@@ -39,7 +59,12 @@ public:
     /// descriptions") are dropped, so the panel is counted once, as the mesh. A scene with
     /// no emitter at all gets a constant white environment. `notes` receives one line per
     /// decision.
-    LightSet(const scenes::Scene& scene, std::vector<std::string>& notes);
+    /// Under LightModel::Course nothing is deduplicated and emissive surfaces are not
+    /// sampled (see LightModel). glTF scenes always use Mesh (a note says so when Course
+    /// was asked for).
+    LightSet(const scenes::Scene& scene, LightModel model, std::vector<std::string>& notes);
+
+    LightModel model() const { return model_; }
 
     size_t size() const { return lights_.size(); }
     Kind kind(size_t i) const { return lights_[i].kind; }
@@ -53,6 +78,14 @@ public:
     /// Samples light `i` as seen from point `p` with unit normal `n` (the environment is
     /// sampled by a cosine lobe around n). Returns false when the sample carries nothing.
     bool sample(size_t i, const Vec3f& p, const Vec3f& n, Rng& rng, LightSample& out) const;
+
+    /// The emitter-visibility policy, consulted wherever an integrator adds emission
+    /// found by a ray (camera rays, -H direct rays): the radiance the surface at `it`
+    /// emits toward `wo`, zero when it does not emit that way. Consistent with sample():
+    /// a side that is sampled is a side that is seen. Emission found by bounce rays is
+    /// never added by the integrator in either model: in Mesh it was counted by light
+    /// sampling at the previous vertex, in Course it is black (the course's bounce).
+    Vec3f emitted(const Interaction& it, const Vec3f& wo) const;
 
     /// Summary line per kind, for stderr.
     std::string summary() const;
@@ -71,12 +104,14 @@ private:
     struct Tri {
         Vec3f v0, e1, e2;
         Vec3f n;  ///< unit normal of the emitting side
+        bool two_sided;
         uint32_t mesh, index;  ///< for textured emission: where to find the uvs
     };
     std::vector<Light> lights_;
     std::vector<Tri> tris_;    // emissive triangles, grouped by mesh light
     std::vector<float> cdf_;   // per mesh light: running area, normalised to 1 at its end
     int env_ = -1;
+    LightModel model_ = LightModel::Mesh;
     const scenes::Scene* scene_ = nullptr;  // for emission textures
 };
 

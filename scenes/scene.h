@@ -41,6 +41,9 @@ struct Material {
     /// that we render as diffuse with `albedo`: names what was replaced.
     std::string replaced;
     bool emitter_reflects = false;
+    /// Emits on both sides (CS184 files: the course's emission has no side test; glTF:
+    /// the material's doubleSided). One-sided emitters emit toward their shading normals.
+    bool double_sided = true;
 
     bool is_emissive() const {
         return emission.x > 0.0f || emission.y > 0.0f || emission.z > 0.0f;

@@ -69,7 +69,9 @@ int main(int argc, char** argv) {
         ->check(CLI::IsMember({0, 1}));
     app.add_option("-a", adaptive, "Adaptive sampling: BATCH TOL (stop a pixel when 1.96*sigma/sqrt(n) <= TOL*mean)")
         ->expected(2);
-    app.add_flag("-H", is.hemisphere, "Direct lighting by uniform hemisphere sampling instead of light sampling");
+    app.add_flag("-H", is.hemisphere, "Direct lighting by uniform hemisphere sampling instead of light sampling "
+                                      "(under --lights=course it converges to a slightly different image than "
+                                      "light sampling, as in the course)");
     app.add_option("-f", output, "Output image (.png, .jpg, .exr; default: SCENE-NAME.png)");
     app.add_option("-r", resolution, "Image size W H (default 800 600)")->expected(2);
     app.add_option("-p", cell, "Render only the cell X Y DX DY (pixels, from the top left)")->expected(4);
@@ -88,6 +90,16 @@ int main(int argc, char** argv) {
                  "Embree counting mode: triangles through our intersector, so tests per ray are counted");
     app.add_option("--camera", camera_mode, "auto | course | file (auto: course for .dae, file for glTF)")
         ->check(CLI::IsMember({"auto", "course", "file"}));
+    std::string lights_mode;
+    app.add_option("--lights", lights_mode,
+                   "Which surfaces are lights. course (default for .dae): the course exactly: -l samples "
+                   "only the file's library_lights (CGL area lights: front side only); emissive meshes "
+                   "are seen, from both sides, by camera rays and -H rays only (black to bounce rays), "
+                   "so -H and -l converge to slightly different images, as in the course. mesh (always "
+                   "for glTF): every emissive surface is the light, sampled by area and seen by every "
+                   "ray, two-sided for .dae (glTF: the material's doubleSided); an area light describing "
+                   "the same panel is counted once; -H and -l converge to the same image")
+        ->check(CLI::IsMember({"course", "mesh"}));
     app.add_option("--cam-pos", cam_pos, "Camera position X Y Z")->expected(3);
     app.add_option("--cam-target", cam_target, "Camera target X Y Z")->expected(3);
     app.add_option("--cam-up", cam_up, "Camera up X Y Z")->expected(3);
@@ -183,7 +195,9 @@ int main(int argc, char** argv) {
     std::unique_ptr<renderer::LightSet> lights;
     if (is.name != "normals") {
         std::vector<std::string> notes;
-        lights = std::make_unique<renderer::LightSet>(scene, notes);
+        lights = std::make_unique<renderer::LightSet>(
+            scene, renderer::parse_light_model(lights_mode, scene.format), notes);
+        std::fprintf(stderr, "[PathTracer] Light semantics: --lights=%s\n", renderer::light_model_name(lights->model()));
         std::fprintf(stderr, "%s\n", lights->summary().c_str());
         for (const std::string& note : notes) std::fprintf(stderr, "[PathTracer] Note: %s\n", note.c_str());
     }

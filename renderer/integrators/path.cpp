@@ -10,17 +10,6 @@ namespace renderer {
 
 namespace {
 
-/// Emission of a hit surface toward wo. A mesh emits on the side its shading normal (the
-/// file's normals, else the winding) faces, as the CS184 panels' CGL area lights do;
-/// light sampling uses the same rule (renderer/lights.cpp). Spheres emit on both sides.
-Vec3f emitted(const scenes::Scene& scene, const Interaction& it, const Vec3f& wo) {
-    if (it.material >= scene.materials.size()) return Vec3f(0.0f);
-    const scenes::Material& m = scene.materials[it.material];
-    if (!m.is_emissive()) return Vec3f(0.0f);
-    if (!it.sphere && accel::dot(it.ns, wo) <= 0) return Vec3f(0.0f);
-    return m.emission * texel(scene, m.emission_texture, it.uv);
-}
-
 /// Diffuse reflectance at a hit; emitters do not reflect (a course trap) unless the
 /// material says it does both.
 Vec3f reflectance(const scenes::Scene& scene, const Interaction& it) {
@@ -60,7 +49,7 @@ Vec3f PathIntegrator::li(const accel::Ray& camera_ray, SampleContext& ctx) const
 
     Vec3f L(0.0f);
     Vec3f wo = -accel::normalize(camera_ray.dir);
-    if (counts(0)) L += emitted(scene_, it, wo);
+    if (counts(0)) L += lights_.emitted(it, wo);
     Vec3f beta(1.0f);
     for (int bounce = 1; bounce <= s_.max_depth; ++bounce) {
         const Vec3f albedo = reflectance(scene_, it);
@@ -87,8 +76,9 @@ Vec3f PathIntegrator::li(const accel::Ray& camera_ray, SampleContext& ctx) const
         if (!ctx.accel.intersect(ray, hit, ctx.stats)) break;  // environment: counted by direct()
         it = make_interaction(scene_, geometry_, ray, hit);
         wo = -wi;
-        // Emission found by a bounce ray was already counted by direct() at the previous
-        // vertex, so it is not added here.
+        // Emission found by a bounce ray is not added (LightSet::emitted): under
+        // --lights=mesh direct() counted it at the previous vertex; under course it is
+        // black, as the course's bounce adds only the light sampled at the next vertex.
     }
     return L;
 }
@@ -134,7 +124,7 @@ Vec3f PathIntegrator::direct_hemisphere(const Interaction& it, const Vec3f& albe
         accel::Hit hit;
         Vec3f Le;
         if (ctx.accel.intersect(ray, hit, ctx.stats))
-            Le = emitted(scene_, make_interaction(scene_, geometry_, ray, hit), -wi);
+            Le = lights_.emitted(make_interaction(scene_, geometry_, ray, hit), -wi);
         else
             Le = lights_.environment();
         sum += Le * f * (local.z / kUniformHemispherePdf);

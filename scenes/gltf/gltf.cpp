@@ -804,6 +804,7 @@ uint32_t Loader::material_index(int mi, const std::string& user) {
         if (!is_finite(emissive) || emissive.x < 0 || emissive.y < 0 || emissive.z < 0)
             fail(mdesc + ": emission (emissiveFactor x emissiveStrength) must be finite and non-negative");
         out.emission = emissive;
+        out.double_sided = g.doubleSided;
         // glTF adds emission on top of the reflected light (glTF 2.0 spec, 3.9.3), unlike
         // the CS184 panels, which only emit.
         out.emitter_reflects = true;

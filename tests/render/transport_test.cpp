@@ -67,11 +67,12 @@ struct World {
     std::unique_ptr<LightSet> lights;
     std::unique_ptr<PathIntegrator> integrator;
     std::vector<std::string> notes;
+    LightModel model = LightModel::Mesh;
 
     void build(const IntegratorSettings& is, const std::string& backend = "custom") {
         geometry = std::make_unique<SceneGeometry>(scene);
         accel = build_accelerator(backend, *geometry, {}, false);
-        lights = std::make_unique<LightSet>(scene, notes);
+        lights = std::make_unique<LightSet>(scene, model, notes);
         integrator = std::make_unique<PathIntegrator>(scene, *geometry, *lights, is);
     }
 };
@@ -155,18 +156,22 @@ protected:
         return rho / M_PI * Le * E;
     }
 
-    World make(bool mesh_light, const IntegratorSettings& is) const {
+    /// The floor lit by the panel mesh, the area light, or both (the CS184 files' two
+    /// descriptions of one light).
+    World make_scene(bool panel, bool rect, LightModel model, bool double_sided, const IntegratorSettings& is) const {
         World s;
         scenes::Material floor;
         floor.albedo = Vec3f(rho);
         scenes::Material light;
         light.emission = Vec3f(Le);
+        light.double_sided = double_sided;
         s.scene.materials = {floor, light};
         s.scene.meshes.push_back(quad({-5, -5, 0}, {5, -5, 0}, {5, 5, 0}, {-5, 5, 0}, 0));
-        if (mesh_light) {
+        if (panel) {
             // Wound to face down (-z): counter-clockwise seen from below.
             s.scene.meshes.push_back(quad({-hw, -hl, h}, {-hw, hl, h}, {hw, hl, h}, {hw, -hl, h}, 1));
-        } else {
+        }
+        if (rect) {
             scenes::Light l;
             l.type = scenes::LightType::Area;
             l.name = "rect";
@@ -177,8 +182,12 @@ protected:
             l.edge_v = {0, 2 * hl, 0};
             s.scene.lights.push_back(l);
         }
+        s.model = model;
         s.build(is);
         return s;
+    }
+    World make(bool mesh_light, const IntegratorSettings& is) const {
+        return make_scene(mesh_light, !mesh_light, LightModel::Mesh, true, is);
     }
     // Seen from the side, low, so the camera ray passes under the light.
     accel::Ray view() const { return ray_to(point + Vec3f(-3.0f, 0.0f, 0.3f), point); }
@@ -230,6 +239,118 @@ TEST(Emitters, DoNotReflect) {
     Estimate e = estimate(*s.integrator, *s.accel, ray_to({0.3f, 0.2f, 0.5f}, {0.2f, 0.1f, 0.0f}), 200, 1);
     EXPECT_DOUBLE_EQ(e.mean, 2.0);
     EXPECT_DOUBLE_EQ(e.se, 0.0);
+}
+
+// --lights=course (issue 12, item 3): the FormFactor scene with BOTH descriptions of its
+// light, the area light (front side down) and the emissive panel at the same place.
+class LightModels : public FormFactor {
+protected:
+    World make_both(LightModel model, bool double_sided, const IntegratorSettings& is) const {
+        return make_scene(true, true, model, double_sided, is);
+    }
+    // Seen from above the light: a camera ray that meets the panel's back (upper) side.
+    accel::Ray from_above() const { return ray_to({0.1f, 0.05f, 2.0f}, {0.15f, -0.1f, h}); }
+    // A ceiling at z = 1.5 (added by the tests that want it), seen from below at a point
+    // above (0, 0.1) of the panel, 0.7 above it; its light from the panel's back side.
+    accel::Ray ceiling_view() const { return ray_to({3.0f, 0.0f, 1.2f}, {0.0f, 0.1f, 1.5f}); }
+    double ceiling_analytic() const {
+        double E = 0;
+        for (double w : {hw, hw})
+            for (double l : {hl - 0.1, hl + 0.1}) E += corner_irradiance(w, l, 1.5 - h);
+        return rho / M_PI * Le * E;
+    }
+};
+
+// Both models light the floor by the panel exactly once, whichever estimator: course by
+// the area light (-l) or the panel's emission (-H), mesh by the panel alone (the area
+// light is dropped as its duplicate).
+TEST_F(LightModels, EachModelCountsThePanelOnce) {
+    for (LightModel model : {LightModel::Course, LightModel::Mesh})
+        for (bool hemisphere : {false, true}) {
+            IntegratorSettings is;
+            is.name = "direct";
+            is.hemisphere = hemisphere;
+            World s = make_both(model, true, is);
+            EXPECT_EQ(s.lights->size(), 1u);
+            EXPECT_EQ(s.lights->kind(0), model == LightModel::Course ? LightSet::Kind::Rect : LightSet::Kind::Mesh);
+            Estimate e = estimate(*s.integrator, *s.accel, view(), 40000, 13);
+            EXPECT_NEAR(e.mean, analytic(), 3.0 * e.se) << light_model_name(model) << " -H=" << hemisphere;
+        }
+}
+
+// Course: light sampling draws only from library_lights. Without an area light, an
+// emissive panel lights nothing under -l, not even through bounce rays that find it
+// (the course's bounce adds only light sampled at the next vertex), though the camera
+// sees it; under -H its emission found by the direct rays counts. No default
+// environment is added, since the scene has an emitter.
+TEST_F(LightModels, CourseSamplesOnlyLibraryLights) {
+    IntegratorSettings is;
+    is.name = "path";
+    is.max_depth = 5;
+    World s = make_scene(true, false, LightModel::Course, true, is);  // the panel only
+    EXPECT_EQ(s.lights->size(), 0u);
+    EXPECT_FALSE(s.lights->has_environment());
+    Estimate l = estimate(*s.integrator, *s.accel, view(), 2000, 3);
+    EXPECT_EQ(l.mean, 0.0);
+    is.name = "direct";
+    is.hemisphere = true;
+    World h = make_scene(true, false, LightModel::Course, true, is);
+    Estimate eh = estimate(*h.integrator, *h.accel, view(), 40000, 3);
+    EXPECT_NEAR(eh.mean, analytic(), 3.0 * eh.se);
+}
+
+// Course: the panel's emission has no side test, so the camera sees its back, and -H
+// rays from a ceiling above it find its back too; the area light emits downward only,
+// so -l leaves that ceiling point dark: -H and -l differ, as in the course. The area
+// light itself is invisible.
+TEST_F(LightModels, CoursePanelTwoSidedAreaLightFrontOnly) {
+    IntegratorSettings is;
+    is.name = "path";
+    is.max_depth = 0;
+    World s = make_both(LightModel::Course, true, is);
+    Estimate top = estimate(*s.integrator, *s.accel, from_above(), 100, 1);
+    EXPECT_DOUBLE_EQ(top.mean, Le);
+    is.name = "direct";
+    is.max_depth = 1;
+    for (bool hemisphere : {false, true}) {
+        is.hemisphere = hemisphere;
+        World c = make_both(LightModel::Course, true, is);
+        c.scene.meshes.push_back(quad({-5, -5, 1.5f}, {-5, 5, 1.5f}, {5, 5, 1.5f}, {5, -5, 1.5f}, 0));
+        c.build(is);
+        Estimate e = estimate(*c.integrator, *c.accel, ceiling_view(), 40000, 5);
+        if (hemisphere)
+            EXPECT_NEAR(e.mean, ceiling_analytic(), 3.0 * e.se);
+        else
+            EXPECT_EQ(e.mean, 0.0);
+    }
+}
+
+// Mesh: a double-sided emitter is seen and sampled from both sides, a one-sided (glTF
+// doubleSided false) one only toward its normals; light sampling and -H agree above the
+// panel, where its back side shines on a point.
+TEST_F(LightModels, MeshSidesFollowTheMaterial) {
+    for (bool two : {true, false}) {
+        IntegratorSettings is;
+        is.name = "path";
+        is.max_depth = 0;
+        World s = make_both(LightModel::Mesh, two, is);
+        Estimate top = estimate(*s.integrator, *s.accel, from_above(), 100, 1);
+        EXPECT_DOUBLE_EQ(top.mean, two ? Le : 0.0) << "double_sided=" << two;
+        // A downward-facing ceiling point above the panel's back: lit only if two-sided.
+        is.name = "direct";
+        is.max_depth = 1;
+        for (bool hemisphere : {false, true}) {
+            is.hemisphere = hemisphere;
+            World c = make_both(LightModel::Mesh, two, is);
+            c.scene.meshes.push_back(quad({-5, -5, 1.5f}, {-5, 5, 1.5f}, {5, 5, 1.5f}, {5, -5, 1.5f}, 0));
+            c.build(is);
+            Estimate e = estimate(*c.integrator, *c.accel, ceiling_view(), 40000, 5);
+            if (two)
+                EXPECT_NEAR(e.mean, ceiling_analytic(), 3.0 * e.se) << "-H=" << hemisphere;
+            else
+                EXPECT_EQ(e.mean, 0.0) << "-H=" << hemisphere;
+        }
+    }
 }
 
 namespace {
@@ -330,7 +451,7 @@ TEST(Backends, CustomAndEmbreeAgreeOnTheDefaultScene) {
 }
 
 // The scene's light is counted once: hemisphere and light sampling converge to the same
-// direct-lighting image of the course's scene.
+// direct-lighting image of the course's scene (--lights=mesh; World's default).
 TEST(DirectLighting, HemisphereAndLightSamplingAgreeOnCBspheres) {
     if (!std::filesystem::exists(PT_SHARED_SCENES))
         GTEST_SKIP() << "shared scene corpus not found at " << PT_SHARED_SCENES;

@@ -209,7 +209,7 @@ TEST(Lights, GrazingLightSamplesClearTheLightsOwnSurface) {
         renderer::SceneGeometry geometry(scene);
         auto acc = renderer::build_accelerator("custom", geometry, {}, false);
         std::vector<std::string> notes;
-        renderer::LightSet lights(scene, notes);
+        renderer::LightSet lights(scene, renderer::LightModel::Mesh, notes);
         ASSERT_EQ(lights.size(), 1u);
         ASSERT_EQ(lights.kind(0), renderer::LightSet::Kind::Mesh);
         renderer::Rng rng(7, 0);
@@ -271,7 +271,7 @@ TEST(NaN, NanVertexIsDroppedAndNoPixelIsNaN) {
         auto acc = renderer::build_accelerator(backend, geometry, {}, false);
         EXPECT_EQ(acc->info().dropped, 2u) << backend;
         std::vector<std::string> notes;
-        renderer::LightSet lights(scene, notes);
+        renderer::LightSet lights(scene, renderer::LightModel::Mesh, notes);
         renderer::IntegratorSettings is;
         renderer::PathIntegrator integ(scene, geometry, lights, is);
         renderer::Camera cam = renderer::make_camera(scene, renderer::CameraMode::Auto, 32, 24).camera;
