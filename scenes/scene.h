@@ -121,6 +121,9 @@ struct Scene {
     /// Things the loader decided or skipped that a user should know (replaced
     /// materials, skipped primitives, missing but unneeded textures). Printed on stderr.
     std::vector<std::string> notes;
+    /// Parts of the file's intent that could not be honoured (a missing texture file,
+    /// rendered with its factor alone). Printed on stderr; `pathtracer --strict` refuses.
+    std::vector<std::string> warnings;
 
     uint64_t num_triangles() const {
         uint64_t n = 0;

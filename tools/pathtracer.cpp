@@ -56,7 +56,7 @@ int main(int argc, char** argv) {
     int accumulate = 1;
     std::vector<float> cam_pos, cam_target, cam_up;
     float fov = 0;
-    bool quiet = false, cost = false;
+    bool quiet = false, cost = false, strict = false;
     std::string ocio_config;
 
     app.add_option("scene", scene_path, "Scene file (.dae, .gltf, .glb)")->required();
@@ -121,6 +121,7 @@ int main(int argc, char** argv) {
                  "Also write heat maps of BVH nodes visited and primitive tests per pixel "
                  "(NAME_nodes.png, NAME_tests.png), from the backend that did the work");
     app.add_flag("-q,--quiet", quiet, "No progress lines");
+    app.add_flag("--strict", strict, "Refuse a scene the loader warns about (e.g. a missing texture file)");
 
     tools::parse_or_exit(app, argc, argv, "pathtracer");
 
@@ -175,6 +176,8 @@ int main(int argc, char** argv) {
                  std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
     std::fputs(scenes::scene_summary(scene).c_str(), stderr);
     for (const std::string& note : scene.notes) std::fprintf(stderr, "[PathTracer] Note: %s\n", note.c_str());
+    for (const std::string& w : scene.warnings) std::fprintf(stderr, "[PathTracer] Warning: %s\n", w.c_str());
+    if (strict && !scene.warnings.empty()) fail(scene.warnings.front() + " (--strict)");
     if (scene.num_triangles() == 0 && scene.spheres.empty())
         fail(fmt::format("{}: the scene has no geometry to render", scene_path));
 

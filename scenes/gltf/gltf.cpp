@@ -18,6 +18,7 @@
 
 #include <tiny_gltf.h>
 
+#include "scenes/gltf/gltf_draco.h"
 #include "scenes/gltf/gltf_image.h"
 
 namespace scenes {
@@ -40,9 +41,11 @@ constexpr uint64_t kMaxExternalFileBytes = uint64_t(1) << 31;
 constexpr double kRadToDeg = 57.295779513082320876798;
 
 const std::set<std::string>& supported_extensions() {
-    static const std::set<std::string> s = {"KHR_lights_punctual",
+    static const std::set<std::string> s = {"KHR_draco_mesh_compression",
+                                            "KHR_lights_punctual",
                                             "KHR_materials_emissive_strength",
-                                            "KHR_mesh_quantization"};
+                                            "KHR_mesh_quantization",
+                                            "KHR_texture_transform"};
     return s;
 }
 
@@ -303,6 +306,15 @@ constexpr AttributeRule kNormalRule{"NORMAL", TINYGLTF_TYPE_VEC3, kCtFloat | kCt
 constexpr AttributeRule kTexcoordRule{"TEXCOORD", TINYGLTF_TYPE_VEC2,
                                       kCtFloat | kCtByte | kCtUByte | kCtShort | kCtUShort, false};
 
+/// KHR_texture_transform as an affine map of uv: u' = a*u + b*v + c, v' = d*u + e*v + f.
+struct UvTransform {
+    float a = 1, b = 0, c = 0, d = 0, e = 1, f = 0;
+    bool identity() const { return a == 1 && b == 0 && c == 0 && d == 0 && e == 1 && f == 0; }
+    bool operator!=(const UvTransform& o) const {
+        return a != o.a || b != o.b || c != o.c || d != o.d || e != o.e || f != o.f;
+    }
+};
+
 struct DecodedPrimitive {
     bool skip = false;
     std::vector<Vec3f> positions;
@@ -352,6 +364,9 @@ private:
     void add_light(int ni, const Mat4f& world);
     void add_camera(int ni, const Mat4f& world);
     void add_mesh_instance(int ni, const Mat4f& world);
+    void decode_draco_primitive(const tinygltf::Primitive& p, const std::string& pdesc,
+                                const std::string& uv_semantic,
+                                gltf_detail::DracoPrimitive& out);
     const DecodedPrimitive& decode_primitive(int mi, int pi);
 
     struct ViewBytes {
@@ -368,6 +383,8 @@ private:
     std::vector<uint32_t> read_indices(int ai, const std::string& user);
 
     uint32_t material_index(int mi, const std::string& user);
+    UvTransform texture_transform(const tinygltf::TextureInfo& ti, const std::string& desc,
+                                  int& texcoord) const;
     int texture_image(int ti, const std::string& user) const;
     uint32_t decoded_texture(int ii, const std::string& user);
 
@@ -378,6 +395,7 @@ private:
     std::map<std::pair<int, int>, DecodedPrimitive> primitives_;
     std::map<int, uint32_t> materials_;  // glTF material (-1 = default) -> scene material
     std::vector<int> material_uv_set_;   // per scene material, -1 = no texture used
+    std::vector<UvTransform> material_uv_xform_;  // per scene material
     std::map<int, uint32_t> textures_;   // glTF image -> scene texture
     std::set<std::string> ignored_material_features_;
     uint64_t elements_ = 0;
@@ -758,8 +776,12 @@ uint32_t Loader::decoded_texture(int ii, const std::string& user) {
         size = im.image.size();
     }
     if (size == 0) {
-        if (!im.uri.empty() && !tinygltf::IsDataURI(im.uri))
-            fail(user + ": " + image_desc(ii) + ": file not found or unreadable");
+        if (!im.uri.empty() && !tinygltf::IsDataURI(im.uri)) {
+            // As Blender and glTF viewers do: the material keeps its factor alone.
+            scene_.warnings.push_back(name_ + ": " + user + ": " + image_desc(ii) +
+                                      ": file not found or unreadable; rendered without it");
+            return textures_[ii] = kNoTexture;
+        }
         fail(user + ": " + image_desc(ii) + " has no data");
     }
     Texture tex;
@@ -779,6 +801,7 @@ uint32_t Loader::material_index(int mi, const std::string& user) {
     if (found != materials_.end()) return found->second;
     Material out;
     int uv_set = -1;
+    UvTransform uv_xform;
     if (mi == -1) {
         out.name = "default";  // glTF default material is white; the project default is grey 0.8
     } else {
@@ -811,26 +834,31 @@ uint32_t Loader::material_index(int mi, const std::string& user) {
 
         if (pbr.baseColorTexture.texCoord < 0 || g.emissiveTexture.texCoord < 0)
             fail(mdesc + ": negative texCoord");
-        auto note_transform = [&](const tinygltf::TextureInfo& ti, const char* slot) {
-            if (ti.extensions.count("KHR_texture_transform"))
-                ignored_material_features_.insert(std::string("KHR_texture_transform (") + slot + ")");
-        };
+        // One uv set and transform per material (the base colour's); an emissive texture
+        // that differs is sampled with them, and said so.
+        int base_uv = pbr.baseColorTexture.texCoord, emissive_uv = g.emissiveTexture.texCoord;
+        const UvTransform base_xf = texture_transform(pbr.baseColorTexture, mdesc + " baseColorTexture", base_uv);
+        const UvTransform emissive_xf = texture_transform(g.emissiveTexture, mdesc + " emissiveTexture", emissive_uv);
         if (pbr.baseColorTexture.index >= 0) {
             int img = texture_image(pbr.baseColorTexture.index, mdesc + " baseColorTexture");
             out.albedo_texture = decoded_texture(img, mdesc + " baseColorTexture");
-            uv_set = pbr.baseColorTexture.texCoord;
-            note_transform(pbr.baseColorTexture, "baseColorTexture");
+            uv_set = base_uv;
+            uv_xform = base_xf;
         }
         if (g.emissiveTexture.index >= 0) {
             int img = texture_image(g.emissiveTexture.index, mdesc + " emissiveTexture");
             // A texture multiplying zero emission changes nothing: do not decode it.
             if (out.is_emissive()) {
                 out.emission_texture = decoded_texture(img, mdesc + " emissiveTexture");
-                if (uv_set >= 0 && uv_set != g.emissiveTexture.texCoord)
-                    note(mdesc + ": emissiveTexture uses TEXCOORD_" + std::to_string(g.emissiveTexture.texCoord) +
+                if (uv_set >= 0 && uv_set != emissive_uv)
+                    note(mdesc + ": emissiveTexture uses TEXCOORD_" + std::to_string(emissive_uv) +
                          " but baseColorTexture TEXCOORD_" + std::to_string(uv_set) + "; both sampled with the latter");
-                if (uv_set < 0) uv_set = g.emissiveTexture.texCoord;
-                note_transform(g.emissiveTexture, "emissiveTexture");
+                else if (uv_set >= 0 && emissive_xf != uv_xform)
+                    note(mdesc + ": emissiveTexture has another KHR_texture_transform than baseColorTexture; both sampled with the latter");
+                if (uv_set < 0) {
+                    uv_set = emissive_uv;
+                    uv_xform = emissive_xf;
+                }
             }
         }
         if (out.albedo_texture != kNoTexture && out.is_emissive())
@@ -862,12 +890,83 @@ uint32_t Loader::material_index(int mi, const std::string& user) {
     uint32_t idx = uint32_t(scene_.materials.size());
     scene_.materials.push_back(out);
     material_uv_set_.push_back(out.albedo_texture != kNoTexture || out.emission_texture != kNoTexture ? uv_set : -1);
+    material_uv_xform_.push_back(uv_xform);
     materials_[mi] = idx;
     return idx;
 }
 
 // ---------------------------------------------------------------------------------------
 // Meshes
+
+/// KHR_draco_mesh_compression: the extension names a bufferView holding the Draco
+/// stream and maps glTF semantics to Draco attribute ids; the primitive's accessors
+/// only describe the decoded result, so they are not read.
+void Loader::decode_draco_primitive(const tinygltf::Primitive& p, const std::string& pdesc,
+                                    const std::string& uv_semantic,
+                                    gltf_detail::DracoPrimitive& out) {
+    const std::string edesc = pdesc + ": KHR_draco_mesh_compression";
+    const tinygltf::Value& ext = p.extensions.at("KHR_draco_mesh_compression");
+    if (!ext.IsObject()) fail(edesc + " is not an object");
+    const tinygltf::Value& bv = ext.Get("bufferView");
+    const tinygltf::Value& attrs = ext.Get("attributes");
+    if (!bv.IsInt()) fail(edesc + ": bufferView missing or not an integer");
+    if (!attrs.IsObject()) fail(edesc + ": attributes missing or not an object");
+    const int mode = p.mode < 0 ? TINYGLTF_MODE_TRIANGLES : p.mode;
+    if (mode != TINYGLTF_MODE_TRIANGLES && mode != TINYGLTF_MODE_TRIANGLE_STRIP)
+        fail(edesc + ": mode " + std::to_string(mode) + " (only triangles and strips may be compressed)");
+    std::map<std::string, std::pair<int, int>> wanted;
+    auto want = [&](const std::string& sem, int components) {
+        if (sem.empty() || !p.attributes.count(sem)) return;
+        const tinygltf::Value& id = attrs.Get(sem);
+        if (!id.IsInt()) fail(edesc + ": no Draco attribute id for " + sem);
+        wanted[sem] = {id.GetNumberAsInt(), components};
+    };
+    want("POSITION", 3);
+    want("NORMAL", 3);
+    want(uv_semantic, 2);
+    ViewBytes v = buffer_view(bv.GetNumberAsInt(), edesc);
+    const uint64_t budget = kMaxSceneElements - std::min(kMaxSceneElements, decoded_elements_);
+    std::string why = gltf_detail::decode_draco(v.data, v.size, wanted, budget, out);
+    if (!why.empty())
+        fail(edesc + " (bufferView " + std::to_string(bv.GetNumberAsInt()) + "): " + why);
+}
+
+/// KHR_texture_transform on one textureInfo: uv' = T(offset) R(rotation) S(scale) uv,
+/// rotation counter-clockwise in uv (the extension's README; its example maps the unit
+/// square to the lower-left quadrant turned 90 degrees). `texcoord` takes its override.
+UvTransform Loader::texture_transform(const tinygltf::TextureInfo& ti, const std::string& desc,
+                                      int& texcoord) const {
+    UvTransform t;
+    auto it = ti.extensions.find("KHR_texture_transform");
+    if (ti.index < 0 || it == ti.extensions.end()) return t;
+    const std::string edesc = desc + ": KHR_texture_transform";
+    const tinygltf::Value& x = it->second;
+    if (!x.IsObject()) fail(edesc + " is not an object");
+    auto pair = [&](const char* key, double dx, double dy) {
+        if (!x.Has(key)) return std::make_pair(dx, dy);
+        const tinygltf::Value& v = x.Get(key);
+        if (!v.IsArray() || v.ArrayLen() != 2 || !v.Get(0).IsNumber() || !v.Get(1).IsNumber())
+            fail(edesc + ": " + key + " must be 2 numbers");
+        return std::make_pair(v.Get(0).GetNumberAsDouble(), v.Get(1).GetNumberAsDouble());
+    };
+    const auto [ox, oy] = pair("offset", 0.0, 0.0);
+    const auto [sx, sy] = pair("scale", 1.0, 1.0);
+    double r = 0.0;
+    if (x.Has("rotation")) {
+        if (!x.Get("rotation").IsNumber()) fail(edesc + ": rotation must be a number");
+        r = x.Get("rotation").GetNumberAsDouble();
+    }
+    if (!std::isfinite(ox) || !std::isfinite(oy) || !std::isfinite(sx) || !std::isfinite(sy) || !std::isfinite(r))
+        fail(edesc + ": values must be finite");
+    if (x.Has("texCoord")) {
+        const tinygltf::Value& tc = x.Get("texCoord");
+        if (!tc.IsInt() || tc.GetNumberAsInt() < 0) fail(edesc + ": texCoord must be a non-negative integer");
+        texcoord = tc.GetNumberAsInt();
+    }
+    const double c = std::cos(r), s = std::sin(r);
+    t = {float(sx * c), float(sy * s), float(ox), float(-sx * s), float(sy * c), float(oy)};
+    return t;
+}
 
 const DecodedPrimitive& Loader::decode_primitive(int mi, int pi) {
     auto key = std::make_pair(mi, pi);
@@ -890,7 +989,20 @@ const DecodedPrimitive& Loader::decode_primitive(int mi, int pi) {
     if (d.skip) return primitives_.emplace(key, std::move(d)).first->second;
 
     d.material = material_index(p.material, pdesc);
-    std::vector<float> pos = read_attribute(p.attributes.at("POSITION"), kPositionRule, pdesc);
+    const int uv_set = material_uv_set_[d.material];
+    const std::string uv_sem = uv_set >= 0 ? "TEXCOORD_" + std::to_string(uv_set) : "";
+    gltf_detail::DracoPrimitive draco;
+    const bool compressed = p.extensions.count("KHR_draco_mesh_compression") > 0;
+    if (compressed) {
+        decode_draco_primitive(p, pdesc, uv_sem, draco);
+        mode = TINYGLTF_MODE_TRIANGLES;  // Draco decodes strips into a triangle list
+    }
+    // Attributes come from the Draco data when compressed, else from their accessors.
+    auto attribute = [&](const std::string& sem, const AttributeRule& rule) {
+        if (!compressed) return read_attribute(p.attributes.at(sem), rule, pdesc);
+        return std::move(draco.attributes.at(sem));
+    };
+    std::vector<float> pos = attribute("POSITION", kPositionRule);
     const size_t nv = pos.size() / 3;
     if (nv >= size_t(std::numeric_limits<uint32_t>::max()))
         fail(pdesc + ": too many vertices");
@@ -903,31 +1015,36 @@ const DecodedPrimitive& Loader::decode_primitive(int mi, int pi) {
 
     auto nrm_it = p.attributes.find("NORMAL");
     if (nrm_it != p.attributes.end()) {
-        std::vector<float> nrm = read_attribute(nrm_it->second, kNormalRule, pdesc);
+        std::vector<float> nrm = attribute("NORMAL", kNormalRule);
         if (nrm.size() != pos.size())
             fail(pdesc + ": NORMAL has " + std::to_string(nrm.size() / 3) + " elements, POSITION " +
                  std::to_string(nv));
         d.normals.resize(nv);
         for (size_t i = 0; i < nv; ++i) d.normals[i] = {nrm[i * 3], nrm[i * 3 + 1], nrm[i * 3 + 2]};
     }
-    int uv_set = material_uv_set_[d.material];
     if (uv_set >= 0) {
-        std::string sem = "TEXCOORD_" + std::to_string(uv_set);
+        const std::string& sem = uv_sem;
         auto uv_it = p.attributes.find(sem);
         if (uv_it == p.attributes.end()) {
             note(pdesc + ": material " + squote(scene_.materials[d.material].name) + " is textured but the primitive has no " + sem + "; texture sampled at uv (0,0)");
         } else {
-            std::vector<float> uv = read_attribute(uv_it->second, kTexcoordRule, pdesc);
+            std::vector<float> uv = attribute(sem, kTexcoordRule);
             if (uv.size() / 2 != nv)
                 fail(pdesc + ": " + sem + " has " + std::to_string(uv.size() / 2) + " elements, POSITION " +
                      std::to_string(nv));
             d.uvs.resize(nv);
-            for (size_t i = 0; i < nv; ++i) d.uvs[i] = {uv[i * 2], uv[i * 2 + 1]};
+            const UvTransform& t = material_uv_xform_[d.material];
+            for (size_t i = 0; i < nv; ++i) {
+                const float u = uv[i * 2], v = uv[i * 2 + 1];
+                d.uvs[i] = {t.a * u + t.b * v + t.c, t.d * u + t.e * v + t.f};
+            }
         }
     }
 
     std::vector<uint32_t> idx;
-    if (p.indices >= 0) {
+    if (compressed) {
+        idx = std::move(draco.triangles);
+    } else if (p.indices >= 0) {
         idx = read_indices(p.indices, pdesc);
         for (size_t i = 0; i < idx.size(); ++i)
             if (idx[i] >= nv)
@@ -1063,6 +1180,18 @@ Scene load_impl(const unsigned char* data, size_t size, const std::string& name,
             throw SceneError(name + ": JSON nested deeper than " + std::to_string(kMaxJsonDepth) + " levels");
     } else if (json_too_deep(data, size)) {
         throw SceneError(name + ": JSON nested deeper than " + std::to_string(kMaxJsonDepth) + " levels");
+    }
+
+    // Draco primitives need their indices key hidden from tinygltf (see gltf_draco.h);
+    // files without the extension are not copied.
+    std::vector<unsigned char> patched;
+    if (gltf_detail::mentions_draco(data, length)) {
+        patched.assign(data, data + length);
+        if (binary)
+            gltf_detail::hide_draco_indices(patched.data() + 20, le32(data + 12));
+        else
+            gltf_detail::hide_draco_indices(patched.data(), patched.size());
+        data = patched.data();
     }
 
     FsContext fs_ctx{base_dir};

@@ -53,13 +53,17 @@ check bad-dae-huge-count 2 "huge.dae" -- "$PT" "$TMP/bad/huge.dae"
 check bad-dae-empty 2 "empty.dae" -- "$PT" "$TMP/bad/empty.dae"
 echo '{"asset": {"version": "2.0"}, "nodes": [' > "$TMP/bad/malformed.gltf"
 check bad-gltf-json 2 "malformed.gltf" -- "$PT" "$TMP/bad/malformed.gltf"
-echo '{"asset":{"version":"2.0"},"extensionsRequired":["KHR_draco_mesh_compression"],"extensionsUsed":["KHR_draco_mesh_compression"]}' > "$TMP/bad/draco.gltf"
-check bad-gltf-draco 2 "draco.gltf.*KHR_draco_mesh_compression" -- "$PT" "$TMP/bad/draco.gltf"
+echo '{"asset":{"version":"2.0"},"extensionsRequired":["EXT_meshopt_compression"],"extensionsUsed":["EXT_meshopt_compression"]}' > "$TMP/bad/meshopt.gltf"
+check bad-gltf-meshopt 2 "meshopt.gltf.*EXT_meshopt_compression" -- "$PT" "$TMP/bad/meshopt.gltf"
 echo '{"asset":{"version":"2.0"},"buffers":[{"uri":"missing.bin","byteLength":36}],"bufferViews":[{"buffer":0,"byteLength":36}],"accessors":[{"bufferView":0,"componentType":5126,"count":3,"type":"VEC3"}],"meshes":[{"primitives":[{"attributes":{"POSITION":0}}]}],"nodes":[{"mesh":0}],"scenes":[{"nodes":[0]}]}' > "$TMP/bad/nobin.gltf"
 check bad-gltf-missing-buffer 2 "nobin.gltf.*missing.bin" -- "$PT" "$TMP/bad/nobin.gltf"
-# A base-colour texture the renderer needs but cannot find: an error naming the image.
+# A base-colour texture the renderer needs but cannot find: a warning naming the image, and
+# the render uses the factor alone; --strict makes it an error.
 echo '{"asset":{"version":"2.0"},"buffers":[{"uri":"data:application/octet-stream;base64,AAAAAAAAAAAAAAAAAACAPwAAAAAAAAAAAAAAAAAAgD8AAAAA","byteLength":36}],"bufferViews":[{"buffer":0,"byteLength":36}],"accessors":[{"bufferView":0,"componentType":5126,"count":3,"type":"VEC3","min":[0,0,0],"max":[1,1,0]}],"images":[{"uri":"gone.png"}],"textures":[{"source":0}],"materials":[{"pbrMetallicRoughness":{"baseColorTexture":{"index":0}}}],"meshes":[{"primitives":[{"attributes":{"POSITION":0},"material":0}]}],"nodes":[{"mesh":0}],"scenes":[{"nodes":[0]}]}' > "$TMP/bad/notex.gltf"
-check bad-gltf-missing-texture 2 "notex.gltf.*gone.png" -- "$PT" "$TMP/bad/notex.gltf"
+check gltf-missing-texture 0 "Warning: .*notex.gltf.*gone.png.*rendered without it" -- "$PT" -r 16 12 -s 1 -f "$TMP/notex.png" "$TMP/bad/notex.gltf"
+[ -s "$TMP/notex.png" ] || { echo "FAIL gltf-missing-texture wrote no image"; fails=$((fails+1)); }
+check gltf-missing-texture-strict 2 "notex.gltf.*gone.png.*--strict" -- "$PT" --strict -r 16 12 -s 1 -f "$TMP/notex2.png" "$TMP/bad/notex.gltf"
+[ ! -e "$TMP/notex2.png" ] || { echo "FAIL --strict still wrote an image"; fails=$((fails+1)); }
 printf 'glTF\x02\x00\x00\x00\xff\x00\x00\x00' > "$TMP/bad/truncated.glb"
 check bad-glb-truncated 2 "truncated.glb" -- "$PT" "$TMP/bad/truncated.glb"
 # A good render writes the file, says where, and leaves no temporary file behind.

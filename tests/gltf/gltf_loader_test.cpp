@@ -476,16 +476,22 @@ TEST(GltfTextures, MissingNeededAndUnneededImages) {
     EXPECT_TRUE(has_note(ok, "nope_normal.png"));
     EXPECT_TRUE(ok.meshes[0].uvs.empty());
     EXPECT_TRUE(ok.textures.empty());
-    // Base colour missing: needed, so an error naming the image and the material.
-    try {
-        load(doc("{\"name\":\"B\",\"pbrMetallicRoughness\":{\"baseColorTexture\":{\"index\":1}}}"), "t.gltf", dir.string());
-        ADD_FAILURE() << "missing base colour texture must fail";
-    } catch (const SceneError& e) {
-        std::string m = e.what();
-        EXPECT_EQ(m.rfind("t.gltf: ", 0), 0u) << m;
-        EXPECT_NE(m.find("nope_base.png"), std::string::npos) << m;
-        EXPECT_NE(m.find("material 'B'"), std::string::npos) << m;
-    }
+    // Base colour missing: needed, so a warning naming the file, image and material, and
+    // the material keeps its factor alone (as Blender and glTF viewers do).
+    Scene base = load(doc("{\"name\":\"B\",\"pbrMetallicRoughness\":{\"baseColorFactor\":[0.5,0.25,1,1],"
+                          "\"baseColorTexture\":{\"index\":1}}}"),
+                      "t.gltf", dir.string());
+    ASSERT_EQ(base.warnings.size(), 1u);
+    const std::string& w = base.warnings[0];
+    EXPECT_EQ(w.rfind("t.gltf: ", 0), 0u) << w;
+    EXPECT_NE(w.find("nope_base.png"), std::string::npos) << w;
+    EXPECT_NE(w.find("material 'B'"), std::string::npos) << w;
+    ASSERT_EQ(base.materials.size(), 1u);
+    EXPECT_EQ(base.materials[0].albedo_texture, scenes::kNoTexture);
+    EXPECT_FLOAT_EQ(base.materials[0].albedo.y, 0.25f);
+    EXPECT_TRUE(base.meshes[0].uvs.empty());
+    EXPECT_TRUE(base.textures.empty());
+    EXPECT_TRUE(ok.warnings.empty());
 }
 
 // ------------------------------------------------------------------------------------
@@ -611,9 +617,9 @@ TEST(GltfErrors, EmptyScene) {
 
 TEST(GltfErrors, UnsupportedRequiredExtension) {
     Doc d = triangle_doc();
-    expect_error(d.json("\"extensionsUsed\":[\"KHR_draco_mesh_compression\"],\"extensionsRequired\":[\"KHR_draco_mesh_compression\"]," +
+    expect_error(d.json("\"extensionsUsed\":[\"EXT_meshopt_compression\"],\"extensionsRequired\":[\"EXT_meshopt_compression\"]," +
                         kTriMesh + kScene0 + ",\"nodes\":[{\"mesh\":0}]"),
-                 {"KHR_draco_mesh_compression"});
+                 {"EXT_meshopt_compression"});
     Scene sc = load(d.json("\"extensionsUsed\":[\"EXT_unknown_thing\"]," + kTriMesh + kScene0 + ",\"nodes\":[{\"mesh\":0}]"));
     EXPECT_TRUE(has_note(sc, "EXT_unknown_thing"));
 }
