@@ -1,10 +1,14 @@
-// The image loop: tiles over TBB, per-pixel random streams, per-thread statistics,
-// progress on stderr, clean stop on Ctrl-C.
+// The image loop: samples in passes, tiles over TBB, per-sample random streams, per-pixel
+// sums, progress on stderr, clean stop on Ctrl-C. Each pixel's sums are accumulated in
+// double in sample order, so the image does not depend on the schedule: any split into
+// tiles, passes, threads, ranks or a resumed checkpoint gives the same bits.
 #pragma once
 
 #include <atomic>
 #include <cstdint>
+#include <functional>
 #include <optional>
+#include <vector>
 
 #include "accel/accelerator.h"
 #include "renderer/camera.h"
@@ -15,6 +19,25 @@ namespace renderer {
 
 struct Cell {
     int x = 0, y = 0, w = 0, h = 0;  ///< -p X Y DX DY, in pixels, y from the top
+};
+
+/// Everything a pixel has accumulated; a checkpoint is an array of these. Counters are
+/// kept per pixel so that the statistics lines are sums over pixels, whoever rendered them.
+struct PixelSums {
+    double rgb[3] = {0, 0, 0}, normal[3] = {0, 0, 0}, albedo[3] = {0, 0, 0};
+    double depth = 0, s1 = 0, s2 = 0;  ///< s1, s2: illuminance sums for the confidence test
+    uint64_t rays = 0, shadow_rays = 0, nodes = 0, tests = 0;
+    uint32_t taken = 0;  ///< samples taken (sample indices 0..taken-1)
+    uint32_t n = 0;      ///< finite samples among them
+    uint32_t bad = 0;    ///< NaN/Inf samples dropped
+    uint32_t done = 0;   ///< 1 once the adaptive test stopped the pixel
+};
+static_assert(sizeof(PixelSums) == 144, "checkpoint layout");
+
+/// The accumulated state of a render, row-major over the whole image.
+struct Accumulation {
+    int width = 0, height = 0;
+    std::vector<PixelSums> pixels;
 };
 
 struct RenderSettings {
@@ -29,7 +52,19 @@ struct RenderSettings {
     /// (illuminance); spp is the cap. 0 = off.
     int adaptive_batch = 0;
     float adaptive_tol = 0.05f;
-    /// Set from a signal handler to stop early; finished tiles are kept.
+    /// Samples per pass (0 = auto: the adaptive batch, else 8). Passes are the unit of
+    /// progressive rendering, of --time-limit and of checkpoints.
+    int pass_spp = 0;
+    /// --time-limit: stop after the last pass that is expected to end within this many
+    /// seconds (the first pass always runs). 0 = no limit.
+    double time_limit = 0.0;
+    /// Continue from this state (a checkpoint); its size must match the image.
+    const Accumulation* resume = nullptr;
+    /// Called between passes, at most every checkpoint_every seconds, and once at the end
+    /// (final = true), with the state so far: a caller writes its checkpoint here.
+    std::function<void(const Accumulation&, bool final)> on_checkpoint;
+    double checkpoint_every = 60.0;
+    /// Set from a signal handler to stop early; finished pixels are kept.
     const std::atomic<bool>* cancel = nullptr;
 };
 
@@ -49,9 +84,15 @@ struct RenderResult {
     accel::TraceStats stats;  ///< summed over threads
     double seconds = 0.0;
     uint64_t samples = 0;     ///< camera samples taken
-    bool partial = false;     ///< stopped before every tile was done
+    bool partial = false;     ///< stopped (Ctrl-C) before every pass was done
+    bool time_limited = false;///< --time-limit ended the render before spp
+    int passes = 0;           ///< passes completed in this run
     uint64_t nan_samples = 0; ///< non-finite samples dropped (counted, never averaged)
+    Accumulation sums;        ///< the state, for a checkpoint or a gather
 };
+
+/// The image channels (see Channel) and the totals of an accumulated state.
+void resolve(const Accumulation& acc, RenderResult& result);
 
 RenderResult render(const Camera& camera, const Integrator& integrator,
                     const accel::Accelerator& accel, const RenderSettings& settings);

@@ -9,10 +9,13 @@
 #include <csignal>
 #include <cstdio>
 #include <filesystem>
+#include <fstream>
+#include <sstream>
 #include <thread>
 
 #include "accel/accelerator.h"
 #include "renderer/camera.h"
+#include "renderer/checkpoint.h"
 #include "renderer/image.h"
 #include "renderer/integrator.h"
 #include "renderer/lights.h"
@@ -36,6 +39,23 @@ std::string default_output(const std::string& scene) {
 std::string sibling(const std::string& path, const std::string& suffix, const std::string& ext) {
     std::filesystem::path p(path);
     return (p.parent_path() / (p.stem().string() + suffix + ext)).string();
+}
+
+/// What a checkpoint must match to be resumed: every option's value (new options join
+/// automatically) except those that do not change the samples, and the scene file's bytes.
+std::string fingerprint(const CLI::App& app, const std::string& scene_path, int spp) {
+    static const char* kFree[] = {"s", "t", "f", "q", "quiet", "checkpoint", "checkpoint-every",
+                                  "resume", "time-limit", "cost", "scene", "ocio-config"};
+    std::string out, line;
+    std::istringstream lines(app.config_to_str(true, false));
+    while (std::getline(lines, line)) {
+        const std::string key = line.substr(0, line.find('='));
+        if (std::find(std::begin(kFree), std::end(kFree), key) == std::end(kFree)) out += line + ";";
+    }
+    std::ifstream in(scene_path, std::ios::binary);
+    uint64_t h = 1469598103934665603ull;  // FNV-1a of the scene file
+    for (char c; in.get(c);) h = (h ^ uint8_t(c)) * 1099511628211ull;
+    return out + fmt::format("scene-fnv1a={:016x};jitter={}", h, spp > 1);
 }
 
 }  // namespace
@@ -109,6 +129,17 @@ int main(int argc, char** argv) {
                  "Also write heat maps of BVH nodes visited and primitive tests per pixel "
                  "(NAME_nodes.png, NAME_tests.png), from the backend that did the work");
     app.add_flag("-q,--quiet", quiet, "No progress lines");
+    std::string checkpoint, resume;
+    app.add_option("--checkpoint", checkpoint, "Write the accumulated samples to FILE (atomically) "
+                   "between passes, at the end and on Ctrl-C");
+    app.add_option("--checkpoint-every", rs.checkpoint_every, "Seconds between checkpoints (default 60)")
+        ->check(CLI::Range(0.0, 1e9));
+    app.add_option("--resume", resume, "Continue from a checkpoint FILE to -s samples per pixel "
+                   "(bit-identical to an uninterrupted render)")->check(CLI::ExistingFile);
+    app.add_option("--time-limit", rs.time_limit, "Render passes until SECONDS are spent")
+        ->check(CLI::Range(0.0, 1e9));
+    app.add_option("--pass", rs.pass_spp, "Samples per pixel per pass (default: the -a batch, else 8)")
+        ->check(CLI::Range(1, 1 << 20));
 
     tools::parse_or_exit(app, argc, argv, "pathtracer");
 
@@ -198,8 +229,32 @@ int main(int argc, char** argv) {
         fail(e.what());
     }
 
+    const std::string fp = fingerprint(app, scene_path, rs.spp);
+    renderer::Accumulation resumed;
+    if (!resume.empty()) {
+        try {
+            resumed = renderer::read_checkpoint(resume, fp);
+        } catch (const renderer::CheckpointError& e) {
+            fail(e.what());
+        }
+        rs.resume = &resumed;
+    }
+    if (!checkpoint.empty())
+        rs.on_checkpoint = [&](const renderer::Accumulation& acc, bool) {
+            try {
+                renderer::write_checkpoint(checkpoint, acc, fp);
+            } catch (const renderer::CheckpointError& e) {
+                fail(e.what());
+            }
+        };
+
     std::signal(SIGINT, on_sigint);
-    renderer::RenderResult result = renderer::render(cam.camera, *integrator, *accel, rs);
+    renderer::RenderResult result;
+    try {
+        result = renderer::render(cam.camera, *integrator, *accel, rs);
+    } catch (const std::invalid_argument& e) {
+        fail(e.what());
+    }
     std::signal(SIGINT, SIG_DFL);
 
     // Statistics go to stdout, as results.
@@ -232,6 +287,9 @@ int main(int argc, char** argv) {
     }
     std::fprintf(stderr, "Done!\n");
     std::printf("Wrote %s%s\n", output.c_str(), result.partial ? " (partial: interrupted)" : "");
+    if (result.time_limited)
+        std::printf("[PathTracer] Time limit: %.2f samples per pixel of %d\n",
+                    double(result.samples) / double(size_t(rs.width) * rs.height), rs.spp);
 
     // Side images: the sample-rate heat map (course name NAME_rate.png) and the cost maps.
     auto channel = [&](int c) {
