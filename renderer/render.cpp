@@ -57,6 +57,11 @@ private:
 
 }  // namespace
 
+Cell TileGrid::rect(size_t i) const {
+    const int x0 = cell.x + int(i % size_t(tiles_x)) * tile, y0 = cell.y + int(i / size_t(tiles_x)) * tile;
+    return {x0, y0, std::min(tile, cell.x + cell.w - x0), std::min(tile, cell.y + cell.h - y0)};
+}
+
 static Image make_image(int width, int height) {
     return Image(width, height,
                  {"R", "G", "B", "N.X", "N.Y", "N.Z", "albedo.R", "albedo.G", "albedo.B", "Z",
@@ -111,10 +116,10 @@ RenderResult render(const Camera& camera, const Integrator& integrator,
     Cell cell = s.cell.value_or(Cell{0, 0, s.width, s.height});
     cell.w = std::min(cell.w, s.width - cell.x);
     cell.h = std::min(cell.h, s.height - cell.y);
-    const int tiles_x = (cell.w + s.tile - 1) / s.tile, tiles_y = (cell.h + s.tile - 1) / s.tile;
-    const size_t num_tiles = size_t(tiles_x) * size_t(tiles_y);
-    const int pass_spp = std::max(1, s.pass_spp > 0 ? s.pass_spp
-                                     : s.adaptive_batch > 0 ? s.adaptive_batch : 8);
+    const TileGrid grid{cell, s.tile, (cell.w + s.tile - 1) / s.tile, (cell.h + s.tile - 1) / s.tile};
+    const size_t num_tiles = grid.count();
+    const int pass_spp = s.tiles ? s.spp : std::max(1, s.pass_spp > 0 ? s.pass_spp
+                                            : s.adaptive_batch > 0 ? s.adaptive_batch : 8);
     const int num_passes = (s.spp + pass_spp - 1) / pass_spp;
 
     tbb::enumerable_thread_specific<accel::TraceStats> thread_stats;
@@ -178,18 +183,15 @@ RenderResult render(const Camera& camera, const Integrator& integrator,
         if (cancelled()) return;
         accel::TraceStats& stats = thread_stats.local();
         const uint64_t rays_before = stats.total_rays();
-        const int x0 = cell.x + int(tile_index % tiles_x) * s.tile;
-        const int y0 = cell.y + int(tile_index / tiles_x) * s.tile;
-        const int x1 = std::min(x0 + s.tile, cell.x + cell.w);
-        const int y1 = std::min(y0 + s.tile, cell.y + cell.h);
-        for (int y = y0; y < y1; ++y) {
+        const Cell r = grid.rect(tile_index);
+        for (int y = r.y; y < r.y + r.h; ++y) {
             // Checked per row too, so Ctrl-C answers promptly at high sample counts; a
             // pixel is never left half-way through a sample, so the state stays resumable.
             if (cancelled()) {
                 stopped = true;
                 return;
             }
-            for (int x = x0; x < x1; ++x) render_pixel(x, y, target, stats);
+            for (int x = r.x; x < r.x + r.w; ++x) render_pixel(x, y, target, stats);
         }
         progress.tile_done(stats.total_rays() - rays_before);
     };
@@ -197,7 +199,29 @@ RenderResult render(const Camera& camera, const Integrator& integrator,
     const int threads = s.threads > 0 ? s.threads : tbb::info::default_concurrency();
     tbb::task_arena arena(threads);
     double last_checkpoint = 0.0;
-    for (int pass = 0; pass < num_passes; ++pass) {
+    if (s.tiles) {
+        // Distributed: every thread pulls tiles until the source runs dry.
+        s.tiles->start(acc, grid, [&](size_t t) {
+            const Cell r = grid.rect(t);
+            uint64_t rays = 0;
+            for (int y = r.y; y < r.y + r.h; ++y)
+                for (int x = r.x; x < r.x + r.w; ++x) {
+                    const PixelSums& q = acc.pixels[size_t(y) * size_t(s.width) + size_t(x)];
+                    rays += q.rays + q.shadow_rays;
+                }
+            progress.tile_done(rays);
+        });
+        arena.execute([&] {
+            tbb::parallel_for(0, threads, [&](int) {
+                for (long t; !cancelled() && (t = s.tiles->next()) >= 0;) {
+                    render_tile(size_t(t), uint32_t(s.spp));
+                    s.tiles->done(t);
+                }
+            });
+        });
+        s.tiles->finish();
+    }
+    for (int pass = 0; pass < num_passes && !s.tiles; ++pass) {
         const auto pass_start = Clock::now();
         const uint32_t target = uint32_t(std::min(s.spp, (pass + 1) * pass_spp));
         arena.execute([&] {
@@ -222,7 +246,7 @@ RenderResult render(const Camera& camera, const Integrator& integrator,
             break;
         }
     }
-    if (s.on_checkpoint) s.on_checkpoint(acc, true);
+    if (s.on_checkpoint && !s.tiles) s.on_checkpoint(acc, true);
 
     result.seconds = std::chrono::duration<double>(Clock::now() - start).count();
     resolve(acc, result);

@@ -40,6 +40,31 @@ struct Accumulation {
     std::vector<PixelSums> pixels;
 };
 
+/// The tiles of a render: index -> pixel rectangle [x0, x1) x [y0, y1).
+struct TileGrid {
+    Cell cell;
+    int tile = 32, tiles_x = 0, tiles_y = 0;
+    size_t count() const { return size_t(tiles_x) * size_t(tiles_y); }
+    Cell rect(size_t i) const;
+};
+
+/// Hands out tiles on demand and takes the finished ones, for a render spread over
+/// processes (tools/distributed.cpp implements it over MPI). Each tile is rendered to the
+/// full sample count by whoever takes it; per-pixel sums keep the image bit-identical.
+struct TileSource {
+    virtual ~TileSource() = default;
+    /// Before the render threads start: the state finished tiles are written into, and
+    /// a callback for each tile that arrives from elsewhere (progress).
+    virtual void start(Accumulation& acc, const TileGrid& grid,
+                       std::function<void(size_t tile)> arrived) = 0;
+    /// The next tile for a render thread, or -1 when none is left (called concurrently).
+    virtual long next() = 0;
+    /// A render thread finished `tile` (its pixels are in the state).
+    virtual void done(long tile) = 0;
+    /// After the render threads end: wait for every tile from elsewhere.
+    virtual void finish() = 0;
+};
+
 struct RenderSettings {
     int width = 800, height = 600;
     int spp = 1;            ///< -s: samples per pixel (the cap under adaptive sampling)
@@ -64,6 +89,9 @@ struct RenderSettings {
     /// (final = true), with the state so far: a caller writes its checkpoint here.
     std::function<void(const Accumulation&, bool final)> on_checkpoint;
     double checkpoint_every = 60.0;
+    /// Distributed render: tiles come from here, each to full spp (no passes, checkpoints
+    /// or time limit). nullptr = this process renders every tile.
+    TileSource* tiles = nullptr;
     /// Set from a signal handler to stop early; finished pixels are kept.
     const std::atomic<bool>* cancel = nullptr;
 };

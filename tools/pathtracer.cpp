@@ -23,6 +23,7 @@
 #include "renderer/scene_geometry.h"
 #include "scenes/load.h"
 #include "tools/cli.h"
+#include "tools/distributed/distributed.h"
 
 namespace {
 
@@ -138,10 +139,15 @@ int main(int argc, char** argv) {
                    "(bit-identical to an uninterrupted render)")->check(CLI::ExistingFile);
     app.add_option("--time-limit", rs.time_limit, "Render passes until SECONDS are spent")
         ->check(CLI::Range(0.0, 1e9));
+    app.add_option("--tile", rs.tile, "Tile size in pixels (default 32), the unit handed to threads and ranks")
+        ->check(CLI::Range(1, 4096));
     app.add_option("--pass", rs.pass_spp, "Samples per pixel per pass (default: the -a batch, else 8)")
         ->check(CLI::Range(1, 1 << 20));
 
     tools::parse_or_exit(app, argc, argv, "pathtracer");
+    const dist::World world = dist::init(argc, argv, "pathtracer");
+    if (world.size > 1 && (!checkpoint.empty() || !resume.empty() || rs.time_limit > 0))
+        fail("--checkpoint, --resume and --time-limit work in a single process, not under mpirun");
 
     if (!resolution.empty()) {
         if (resolution[0] < 1 || resolution[1] < 1 || resolution[0] > 65536 || resolution[1] > 65536)
@@ -172,12 +178,13 @@ int main(int argc, char** argv) {
                         : quality == "medium" ? accel::EmbreeQuality::Medium
                                               : accel::EmbreeQuality::High;
     if (output.empty()) output = default_output(scene_path);
-    rs.progress = !quiet;
+    rs.progress = !quiet && world.root();
     rs.cancel = &g_cancel;
 
     const int threads = rs.threads > 0 ? rs.threads : int(std::max(1u, std::thread::hardware_concurrency()));
     std::fprintf(stderr, "[PathTracer] Input scene file: %s\n", scene_path.c_str());
-    std::fprintf(stderr, "[PathTracer] Rendering using %d threads\n", threads);
+    std::fprintf(stderr, "[PathTracer] Rendering using %d threads%s\n", threads,
+                 world.size > 1 ? fmt::format(" on each of {} MPI ranks", world.size).c_str() : "");
 
     // Load.
     std::fprintf(stderr, "[PathTracer] Collecting primitives... ");
@@ -250,10 +257,16 @@ int main(int argc, char** argv) {
 
     std::signal(SIGINT, on_sigint);
     renderer::RenderResult result;
+    const std::unique_ptr<renderer::TileSource> tiles = dist::make_tile_source(world);
+    rs.tiles = tiles.get();
     try {
         result = renderer::render(cam.camera, *integrator, *accel, rs);
     } catch (const std::invalid_argument& e) {
         fail(e.what());
+    }
+    if (!world.root()) {  // rank 0 has gathered this rank's tiles and writes the files
+        dist::finalize();
+        return 0;
     }
     std::signal(SIGINT, SIG_DFL);
 
@@ -322,5 +335,6 @@ int main(int argc, char** argv) {
         write_heat(renderer::kCostNodes, "_nodes");
         write_heat(renderer::kCostTests, "_tests");
     }
+    dist::finalize();
     return result.partial ? 130 : 0;
 }
