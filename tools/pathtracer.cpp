@@ -46,7 +46,7 @@ std::string sibling(const std::string& path, const std::string& suffix, const st
 /// automatically) except those that do not change the samples, and the scene file's bytes.
 std::string fingerprint(const CLI::App& app, const std::string& scene_path, int spp) {
     static const char* kFree[] = {"s", "t", "f", "q", "quiet", "checkpoint", "checkpoint-every",
-                                  "resume", "time-limit", "cost", "scene", "ocio-config"};
+                                  "resume", "time-limit", "cost", "scene", "ocio-config", "tile", "pass"};
     std::string out, line;
     std::istringstream lines(app.config_to_str(true, false));
     while (std::getline(lines, line)) {
