@@ -6,7 +6,10 @@
 #   benchmarks/run_study.sh [all|accel|tradeoff|extremes|plots]    (default: all)
 #
 # Environment: BUILD (build dir, default build-bench), PT_SHARED_SCENES (default
-# ../shared/scenes), REPEATS (accel_bench timed repeats, default 5).
+# ../shared/scenes), REPEATS (accel_bench timed repeats, default 5), MPIRUN (a launcher
+# prefix for the tradeoff sweep, e.g. "mpirun -np 8 --hostfile hosts": its points are
+# spread over the ranks and the reference is rendered by all of them; rows are identical
+# to a single-process run).
 # Takes ~10 minutes on 2 cores when the machine is otherwise idle: accel_bench ~5 min,
 # tradeoff ~5 min with 3 repeats (+2.5 min the first time for the two 4096-spp
 # references, which are then cached in results/reference/).
@@ -51,7 +54,7 @@ fi
 
 if [[ $STAGE == all || $STAGE == tradeoff ]]; then
   # Three renders per setting, median time: the machine is shared and drifts.
-  "$BUILD/benchmarks/tradeoff" --repeats 3 --csv "$OUT/tradeoff.csv" --ref-dir "$OUT/reference" \
+  ${MPIRUN:-} "$BUILD/benchmarks/tradeoff" --repeats 3 --csv "$OUT/tradeoff.csv" --ref-dir "$OUT/reference" \
     --scene "$SHARED/CBspheres_lambertian.dae" --scene "$SHARED/CBbunny.dae" | tee "$OUT/tradeoff.txt"
 fi
 

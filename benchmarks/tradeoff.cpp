@@ -17,7 +17,9 @@
 // The reference has noise of its own; `*_debiased` columns subtract its estimated
 // variance (the reference's per-pixel variance of the mean, summed over the region)
 // from the squared error, so that high-spp points are not flattened by the reference's
-// floor. Wall time is render() alone (all threads unless --threads), scene loading and
+// floor. Under mpirun the points are spread over the ranks (point i on rank i mod N) and
+// the reference is rendered by all of them; rank 0 prints and writes everything, and every
+// error is identical to a single-process run (same seeds, per-sample streams). Wall time is render() alone (all threads unless --threads), scene loading and
 // BVH build excluded; the accelerator comparison also reports build time.
 #include <CLI/CLI.hpp>
 #include <fmt/format.h>
@@ -45,6 +47,7 @@
 #include "renderer/spawn.h"
 #include "scenes/load.h"
 #include "tools/cli.h"
+#include "tools/distributed/distributed.h"
 
 namespace {
 
@@ -96,7 +99,8 @@ struct World {
     }
 };
 
-renderer::RenderResult render(World& w, const Config& c, int width, int height, int threads) {
+renderer::RenderResult render(World& w, const Config& c, int width, int height, int threads,
+                              renderer::TileSource* tiles = nullptr) {
     const accel::Accelerator& a = w.accel(c.backend);
     renderer::PathIntegrator integrator(w.scene, *w.geometry, *w.lights, c.is);
     renderer::RenderSettings rs;
@@ -108,6 +112,7 @@ renderer::RenderResult render(World& w, const Config& c, int width, int height, 
     rs.progress = false;
     rs.adaptive_batch = c.adaptive_batch;
     rs.adaptive_tol = c.adaptive_tol;
+    rs.tiles = tiles;
     return renderer::render(w.camera, integrator, a, rs);
 }
 
@@ -239,6 +244,7 @@ int main(int argc, char** argv) {
     app.add_option("--repeats", repeats, "Renders per configuration; the median time is kept (default 1)");
     app.add_flag("--quick", quick, "Smoke run: the default scene at 32x24, reference 64 spp (not cached), few points");
     tools::parse_or_exit(app, argc, argv, "tradeoff");
+    const dist::World mpi = dist::init(argc, argv, "tradeoff");
     if (quick) {
         width = 32;
         height = 24;
@@ -268,13 +274,14 @@ int main(int argc, char** argv) {
     base.rr_continue = 0.65f;
 
     std::ofstream csv;
-    if (!csv_path.empty()) {
+    if (!csv_path.empty() && mpi.root()) {
         csv.open(csv_path + ".tmp");
         csv << "scene,study,label,param,spp,light_samples,max_depth,rr,hemisphere,backend,adaptive_tol,seconds,"
                "samples,rel_rmse,rel_rmse_shadow,rel_rmse_debiased,rel_rmse_shadow_debiased,ref_floor,"
                "ref_floor_shadow,build_ms\n";
     }
-    std::printf("%-22s %-13s %-22s %7s %6s %9s %10s %9s %9s %9s\n", "scene", "study", "label", "param", "spp",
+    if (mpi.root())
+        std::printf("%-22s %-13s %-22s %7s %6s %9s %10s %9s %9s %9s\n", "scene", "study", "label", "param", "spp",
                 "seconds", "samples", "rel_rmse", "shadow", "debiased");
 
     for (const std::string& path : scene_paths) {
@@ -303,13 +310,18 @@ int main(int argc, char** argv) {
         std::string header = ref_header(name, width, height, ref_spp, base);
         header.insert(header.size() - 1, fmt::format(" hfov={:.3f}", w.camera.hfov_deg()));
         const std::string ref_path = fmt::format("{}/{}_{}x{}_{}spp.ref", ref_dir, name, width, height, ref_spp);
-        if (quick || !load_ref(ref_path, header, ref)) {
+        // Rank 0 decides whether the cached reference is usable; if not, every rank renders
+        // tiles of it and rank 0 gathers; then every rank gets rank 0's copy.
+        std::string cached(1, (!quick && mpi.root() && load_ref(ref_path, header, ref)) ? '1' : '0');
+        dist::broadcast(mpi, cached);
+        if (cached[0] == '0') {
             std::fprintf(stderr, "[tradeoff] %s: rendering the %d spp reference...\n", name.c_str(), ref_spp);
             Config c;
             c.is = base;
             c.spp = ref_spp;
             c.seed = 0x5eed0f7e5ULL;  // independent of every study render (they use small seeds)
-            const auto r = render(w, c, width, height, threads);
+            const auto tiles = dist::make_tile_source(mpi);
+            const auto r = render(w, c, width, height, threads, tiles.get());
             ref.seconds = r.seconds;
             ref.y.resize(size_t(width) * height);
             ref.var.resize(ref.y.size());
@@ -318,7 +330,7 @@ int main(int argc, char** argv) {
                     ref.y[size_t(y) * width + x] = luminance(r.image.at(x, y));
                     ref.var[size_t(y) * width + x] = r.image.at(x, y)[renderer::kVariance];
                 }
-            if (!quick) {
+            if (!quick && mpi.root()) {
                 std::filesystem::create_directories(ref_dir);
                 save_ref(ref_path, header, ref);
                 try {
@@ -329,8 +341,14 @@ int main(int argc, char** argv) {
             }
             std::fprintf(stderr, "[tradeoff] %s: reference took %.1f s\n", name.c_str(), r.seconds);
         }
+        for (std::vector<float>* v : {&ref.y, &ref.var}) {
+            std::string bytes(reinterpret_cast<const char*>(v->data()), v->size() * sizeof(float));
+            dist::broadcast(mpi, bytes);
+            v->resize(bytes.size() / sizeof(float));
+            std::memcpy(v->data(), bytes.data(), bytes.size());
+        }
         make_masks(w, ref, quick ? 8 : 64);
-        if (!quick) {
+        if (!quick && mpi.root()) {
             std::vector<float> m(ref.shadow_mask.size());
             for (size_t i = 0; i < m.size(); ++i) m[i] = ref.image_mask[i] ? (ref.shadow_mask[i] ? 1.0f : 0.3f) : 0.0f;
             try {
@@ -355,7 +373,8 @@ int main(int argc, char** argv) {
             }
         }
         const double floor_img = ry[0] > 0 ? std::sqrt(rv[0] / ry[0]) : 0, floor_sh = ry[1] > 0 ? std::sqrt(rv[1] / ry[1]) : 0;
-        std::fprintf(stderr, "[tradeoff] %s: %zu shadow pixels of %zu; reference noise floor %.4f (shadow %.4f)\n",
+        if (mpi.root())
+            std::fprintf(stderr, "[tradeoff] %s: %zu shadow pixels of %zu; reference noise floor %.4f (shadow %.4f)\n",
                      name.c_str(), nshadow, ref.y.size(), floor_img, floor_sh);
 
         // The configurations. Quick mode keeps one or two points per study.
@@ -419,9 +438,11 @@ int main(int argc, char** argv) {
                     add(c);
                 }
 
+        std::vector<std::string> rows;  // "text line\ncsv line", for this rank's points
         for (Config& c : configs) {
             // Every configuration gets its own seed, independent of the reference's.
             c.seed = 1 + uint64_t(&c - configs.data());
+            if ((&c - configs.data()) % mpi.size != mpi.rank) continue;
             std::vector<double> times;
             renderer::RenderResult r;
             for (int k = 0; k < std::max(1, repeats); ++k) {
@@ -431,22 +452,33 @@ int main(int argc, char** argv) {
             std::sort(times.begin(), times.end());
             const double secs = times[times.size() / 2];
             const Errors e = errors(r.image, ref);
-            std::printf("%-22s %-13s %-22s %7g %6d %9.3f %10llu %9.5f %9.5f %9.5f\n", name.c_str(), c.study.c_str(),
-                        c.label.c_str(), c.param, c.spp, secs, (unsigned long long)r.samples, e.image, e.shadow, e.image_db);
-            std::fflush(stdout);
-            if (csv)
-                csv << fmt::format("{},{},{},{},{},{},{},{:.3f},{},{},{},{:.5f},{},{:.6f},{:.6f},{:.6f},{:.6f},{:.6f},{:.6f},{:.2f}\n",
+            std::string row = fmt::format("{:<22} {:<13} {:<22} {:>7} {:>6} {:>9.3f} {:>10} {:>9.5f} {:>9.5f} {:>9.5f}\n",
+                                          name, c.study, c.label, fmt::format("{:g}", c.param), c.spp, secs,
+                                          r.samples, e.image, e.shadow, e.image_db);
+            if (mpi.size == 1) {  // a single process prints as it goes
+                std::fputs(row.c_str(), stdout);
+                std::fflush(stdout);
+            }
+            row += fmt::format("{},{},{},{},{},{},{},{:.3f},{},{},{},{:.5f},{},{:.6f},{:.6f},{:.6f},{:.6f},{:.6f},{:.6f},{:.2f}\n",
                                    name, c.study, c.label, c.param, c.spp, c.is.light_samples, c.is.max_depth,
                                    c.is.rr_continue, c.is.hemisphere ? 1 : 0, c.backend, c.adaptive_tol, secs,
                                    r.samples, e.image, e.shadow, e.image_db, e.shadow_db, floor_img, floor_sh,
                                    w.build_ms[c.backend]);
+            rows.push_back(std::move(row));
         }
+        for (const std::string& row : dist::gather(mpi, rows, configs.size())) {
+            const size_t nl = row.find('\n');
+            if (mpi.size > 1) std::fputs(row.substr(0, nl + 1).c_str(), stdout);
+            if (csv.is_open()) csv << row.substr(nl + 1);
+        }
+        std::fflush(stdout);
     }
-    if (csv) {
+    if (csv.is_open()) {
         csv.close();
         if (!csv) fail(csv_path + ": write failed");
         std::filesystem::rename(csv_path + ".tmp", csv_path);
         std::printf("wrote %s\n", csv_path.c_str());
     }
+    dist::finalize();
     return 0;
 }

@@ -10,6 +10,7 @@
 #include <chrono>
 #include <cstdio>
 #include <mutex>
+#include <stdexcept>
 
 #include <unistd.h>
 
@@ -56,121 +57,207 @@ private:
 
 }  // namespace
 
+Cell TileGrid::rect(size_t i) const {
+    const int x0 = cell.x + int(i % size_t(tiles_x)) * tile, y0 = cell.y + int(i / size_t(tiles_x)) * tile;
+    return {x0, y0, std::min(tile, cell.x + cell.w - x0), std::min(tile, cell.y + cell.h - y0)};
+}
+
+static Image make_image(int width, int height) {
+    return Image(width, height,
+                 {"R", "G", "B", "N.X", "N.Y", "N.Z", "albedo.R", "albedo.G", "albedo.B", "Z",
+                  "samples", "variance", "cost.nodes", "cost.tests", "nan"});
+}
+
+void resolve(const Accumulation& acc, RenderResult& result) {
+    result.image = make_image(acc.width, acc.height);
+    result.stats = {};
+    result.samples = 0;
+    result.nan_samples = 0;
+    for (int y = 0; y < acc.height; ++y)
+        for (int x = 0; x < acc.width; ++x) {
+            const PixelSums& q = acc.pixels[size_t(y) * size_t(acc.width) + size_t(x)];
+            float* p = result.image.at(x, y);
+            const double inv = q.n > 0 ? 1.0 / double(q.n) : 0.0;
+            for (int c = 0; c < 3; ++c) {
+                p[kR + c] = float(q.rgb[c] * inv);
+                p[kNx + c] = float(q.normal[c] * inv);
+                p[kAlbedoR + c] = float(q.albedo[c] * inv);
+            }
+            p[kDepth] = float(q.depth * inv);
+            p[kSamples] = float(q.taken);
+            const double n = double(q.n);
+            p[kVariance] = q.n > 1 ? float(std::max(0.0, (q.s2 - q.s1 * q.s1 / n) / (n - 1)) / n) : 0.0f;
+            p[kCostNodes] = q.taken ? float(double(q.nodes) / double(q.taken)) : 0.0f;
+            p[kCostTests] = q.taken ? float(double(q.tests) / double(q.taken)) : 0.0f;
+            p[kNaN] = float(q.bad);
+            result.stats.rays += q.rays;
+            result.stats.shadow_rays += q.shadow_rays;
+            result.stats.nodes_visited += q.nodes;
+            result.stats.prim_tests += q.tests;
+            result.samples += q.taken;
+            result.nan_samples += q.bad;
+        }
+}
+
 RenderResult render(const Camera& camera, const Integrator& integrator,
                     const accel::Accelerator& accel, const RenderSettings& s) {
     RenderResult result;
-    result.image = Image(s.width, s.height,
-                         {"R", "G", "B", "N.X", "N.Y", "N.Z", "albedo.R", "albedo.G", "albedo.B",
-                          "Z", "samples", "variance", "cost.nodes", "cost.tests", "nan"});
+    Accumulation& acc = result.sums;
+    if (s.resume) {
+        acc = *s.resume;
+        if (acc.width != s.width || acc.height != s.height ||
+            acc.pixels.size() != size_t(s.width) * size_t(s.height))
+            throw std::invalid_argument("resume: the saved state does not match the image size");
+    } else {
+        acc.width = s.width;
+        acc.height = s.height;
+        acc.pixels.assign(size_t(s.width) * size_t(s.height), PixelSums{});
+    }
     Cell cell = s.cell.value_or(Cell{0, 0, s.width, s.height});
     cell.w = std::min(cell.w, s.width - cell.x);
     cell.h = std::min(cell.h, s.height - cell.y);
-    const int tiles_x = (cell.w + s.tile - 1) / s.tile, tiles_y = (cell.h + s.tile - 1) / s.tile;
-    const size_t num_tiles = size_t(tiles_x) * size_t(tiles_y);
+    const TileGrid grid{cell, s.tile, (cell.w + s.tile - 1) / s.tile, (cell.h + s.tile - 1) / s.tile};
+    const size_t num_tiles = grid.count();
+    const int pass_spp = s.tiles ? s.spp : std::max(1, s.pass_spp > 0 ? s.pass_spp
+                                            : s.adaptive_batch > 0 ? s.adaptive_batch : 8);
+    const int num_passes = (s.spp + pass_spp - 1) / pass_spp;
 
     tbb::enumerable_thread_specific<accel::TraceStats> thread_stats;
-    tbb::enumerable_thread_specific<uint64_t> thread_samples(0), thread_nans(0);
-    std::atomic<size_t> tiles_done{0};
-    Progress progress(s.progress, num_tiles);
+    Progress progress(s.progress, num_tiles * size_t(num_passes));
     const auto start = Clock::now();
+    std::atomic<bool> stopped{false};
+    auto cancelled = [&] { return s.cancel && s.cancel->load(std::memory_order_relaxed); };
 
-    auto render_tile = [&](size_t tile_index) {
-        if (s.cancel && s.cancel->load(std::memory_order_relaxed)) return;
-        accel::TraceStats& stats = thread_stats.local();
-        const uint64_t rays_before = stats.total_rays();
-        const int x0 = cell.x + int(tile_index % tiles_x) * s.tile;
-        const int y0 = cell.y + int(tile_index / tiles_x) * s.tile;
-        const int x1 = std::min(x0 + s.tile, cell.x + cell.w);
-        const int y1 = std::min(y0 + s.tile, cell.y + cell.h);
-        uint64_t samples = 0, nans = 0;
-        bool stopped = false;
-        for (int y = y0; y < y1 && !stopped; ++y) {
-            // Checked per row too, so Ctrl-C answers promptly at high sample counts.
-            if (s.cancel && s.cancel->load(std::memory_order_relaxed)) {
-                stopped = true;
-                break;
+    // Takes pixel (x, y) up to `target` samples; samples are added in index order, so the
+    // sums are the same whichever pass, thread or process takes them.
+    auto render_pixel = [&](int x, int y, uint32_t target, accel::TraceStats& stats) {
+        const uint64_t pixel = uint64_t(y) * uint64_t(s.width) + uint64_t(x);
+        PixelSums& q = acc.pixels[pixel];
+        if (q.done) return;
+        const accel::TraceStats before = stats;
+        while (q.taken < target) {
+            Rng rng(s.seed, pixel, q.taken);
+            // One sample sits at the pixel centre (as the course does); more are jittered
+            // uniformly inside the pixel.
+            float jx = 0.5f, jy = 0.5f;
+            if (s.spp > 1) {
+                jx = rng.next_float();
+                jy = rng.next_float();
             }
-            for (int x = x0; x < x1; ++x) {
-                Rng rng(s.seed, uint64_t(y) * uint64_t(s.width) + uint64_t(x));
-                const uint64_t nodes0 = stats.nodes_visited, tests0 = stats.prim_tests;
-                Vec3f sum(0.0f), nsum(0.0f), asum(0.0f);
-                float dsum = 0.0f;
-                double s1 = 0.0, s2 = 0.0;  // illuminance sums for the confidence test
-                int n = 0, taken = 0, bad = 0;
-                while (taken < s.spp) {
-                    // One sample sits at the pixel centre (as the course does); more are
-                    // jittered uniformly inside the pixel.
-                    float jx = 0.5f, jy = 0.5f;
-                    if (s.spp > 1) {
-                        jx = rng.next_float();
-                        jy = rng.next_float();
-                    }
-                    const accel::Ray ray = camera.generate_ray((float(x) + jx) / float(s.width),
-                                                               (float(y) + jy) / float(s.height));
-                    SampleContext ctx{accel, stats, rng, {}};
-                    const Vec3f L = integrator.li(ray, ctx);
-                    ++taken;
-                    if (!accel::is_finite(L)) {
-                        ++bad;  // a NaN/Inf sample is counted and reported, never averaged
-                    } else {
-                        sum += L;
-                        nsum += ctx.aov.normal;
-                        asum += ctx.aov.albedo;
-                        dsum += ctx.aov.depth;
-                        const double lum = 0.2126 * L.x + 0.7152 * L.y + 0.0722 * L.z;
-                        s1 += lum;
-                        s2 += lum * lum;
-                        ++n;
-                    }
-                    if (s.adaptive_batch > 0 && taken % s.adaptive_batch == 0 && n > 1) {
-                        const double mu = s1 / n;
-                        const double var = std::max(0.0, (s2 - s1 * s1 / n) / (n - 1));
-                        if (1.96 * std::sqrt(var / n) <= double(s.adaptive_tol) * mu) break;
-                    }
+            const accel::Ray ray = camera.generate_ray((float(x) + jx) / float(s.width),
+                                                       (float(y) + jy) / float(s.height));
+            SampleContext ctx{accel, stats, rng, {}};
+            const Vec3f L = integrator.li(ray, ctx);
+            ++q.taken;
+            if (!accel::is_finite(L)) {
+                ++q.bad;  // a NaN/Inf sample is counted and reported, never averaged
+            } else {
+                const Vec3f c[3] = {L, ctx.aov.normal, ctx.aov.albedo};
+                for (int k = 0; k < 3; ++k) {
+                    q.rgb[k] += double(c[0][k]);
+                    q.normal[k] += double(c[1][k]);
+                    q.albedo[k] += double(c[2][k]);
                 }
-                samples += uint64_t(taken);
-                nans += uint64_t(bad);
-                const float inv = n > 0 ? 1.0f / float(n) : 0.0f;
-                float* p = result.image.at(x, y);
-                p[kR] = sum.x * inv; p[kG] = sum.y * inv; p[kB] = sum.z * inv;
-                p[kNx] = nsum.x * inv; p[kNy] = nsum.y * inv; p[kNz] = nsum.z * inv;
-                p[kAlbedoR] = asum.x * inv; p[kAlbedoG] = asum.y * inv; p[kAlbedoB] = asum.z * inv;
-                p[kDepth] = dsum * inv;
-                p[kSamples] = float(taken);
-                p[kVariance] = n > 1 ? float(std::max(0.0, (s2 - s1 * s1 / n) / (n - 1)) / n) : 0.0f;
-                p[kCostNodes] = float(stats.nodes_visited - nodes0) / float(taken);
-                p[kCostTests] = float(stats.prim_tests - tests0) / float(taken);
-                p[kNaN] = float(bad);
+                q.depth += double(ctx.aov.depth);
+                const double lum = 0.2126 * L.x + 0.7152 * L.y + 0.0722 * L.z;
+                q.s1 += lum;
+                q.s2 += lum * lum;
+                ++q.n;
+            }
+            if (s.adaptive_batch > 0 && q.taken % uint32_t(s.adaptive_batch) == 0 && q.n > 1) {
+                const double n = double(q.n), mu = q.s1 / n;
+                const double var = std::max(0.0, (q.s2 - q.s1 * q.s1 / n) / (n - 1));
+                if (1.96 * std::sqrt(var / n) <= double(s.adaptive_tol) * mu) {
+                    q.done = 1;
+                    break;
+                }
             }
         }
-        thread_nans.local() += nans;
-        thread_samples.local() += samples;
-        if (stopped) return;  // an unfinished tile does not count as done
-        ++tiles_done;
+        q.rays += stats.rays - before.rays;
+        q.shadow_rays += stats.shadow_rays - before.shadow_rays;
+        q.nodes += stats.nodes_visited - before.nodes_visited;
+        q.tests += stats.prim_tests - before.prim_tests;
+    };
+
+    auto render_tile = [&](size_t tile_index, uint32_t target) {
+        if (cancelled()) return;
+        accel::TraceStats& stats = thread_stats.local();
+        const uint64_t rays_before = stats.total_rays();
+        const Cell r = grid.rect(tile_index);
+        for (int y = r.y; y < r.y + r.h; ++y) {
+            // Checked per row too, so Ctrl-C answers promptly at high sample counts; a
+            // pixel is never left half-way through a sample, so the state stays resumable.
+            if (cancelled()) {
+                stopped = true;
+                return;
+            }
+            for (int x = r.x; x < r.x + r.w; ++x) render_pixel(x, y, target, stats);
+        }
         progress.tile_done(stats.total_rays() - rays_before);
     };
 
     const int threads = s.threads > 0 ? s.threads : tbb::info::default_concurrency();
     tbb::task_arena arena(threads);
-    arena.execute([&] {
-        // Grain 1: tiles are already coarse; dynamic balance matters more.
-        tbb::parallel_for(tbb::blocked_range<size_t>(0, num_tiles, 1),
-                          [&](const tbb::blocked_range<size_t>& r) {
-                              for (size_t i = r.begin(); i != r.end(); ++i) render_tile(i);
-                          });
-    });
+    double last_checkpoint = 0.0;
+    if (s.tiles) {
+        // Distributed: every thread pulls tiles until the source runs dry.
+        s.tiles->start(acc, grid, [&](size_t t) {
+            const Cell r = grid.rect(t);
+            uint64_t rays = 0;
+            for (int y = r.y; y < r.y + r.h; ++y)
+                for (int x = r.x; x < r.x + r.w; ++x) {
+                    const PixelSums& q = acc.pixels[size_t(y) * size_t(s.width) + size_t(x)];
+                    rays += q.rays + q.shadow_rays;
+                }
+            progress.tile_done(rays);
+        });
+        arena.execute([&] {
+            tbb::parallel_for(0, threads, [&](int) {
+                for (long t; !cancelled() && (t = s.tiles->next()) >= 0;) {
+                    render_tile(size_t(t), uint32_t(s.spp));
+                    s.tiles->done(t);
+                }
+            });
+        });
+        s.tiles->finish();
+    }
+    for (int pass = 0; pass < num_passes && !s.tiles; ++pass) {
+        const auto pass_start = Clock::now();
+        const uint32_t target = uint32_t(std::min(s.spp, (pass + 1) * pass_spp));
+        arena.execute([&] {
+            // Grain 1: tiles are already coarse; dynamic balance matters more.
+            tbb::parallel_for(tbb::blocked_range<size_t>(0, num_tiles, 1),
+                              [&](const tbb::blocked_range<size_t>& r) {
+                                  for (size_t i = r.begin(); i != r.end(); ++i) render_tile(i, target);
+                              });
+        });
+        if (cancelled()) stopped = true;
+        if (stopped) break;
+        ++result.passes;
+        const auto now = Clock::now();
+        const double elapsed = std::chrono::duration<double>(now - start).count();
+        const double pass_seconds = std::chrono::duration<double>(now - pass_start).count();
+        if (pass + 1 < num_passes && s.on_checkpoint && elapsed - last_checkpoint >= s.checkpoint_every) {
+            s.on_checkpoint(acc, false);
+            last_checkpoint = elapsed;
+        }
+        if (pass + 1 < num_passes && s.time_limit > 0 && elapsed + pass_seconds > s.time_limit) {
+            result.time_limited = true;
+            break;
+        }
+    }
+    if (s.on_checkpoint && !s.tiles) s.on_checkpoint(acc, true);
 
     result.seconds = std::chrono::duration<double>(Clock::now() - start).count();
-    for (const accel::TraceStats& st : thread_stats) result.stats += st;
-    for (uint64_t n : thread_samples) result.samples += n;
-    for (uint64_t n : thread_nans) result.nan_samples += n;
-    result.partial = tiles_done.load() < num_tiles;
+    resolve(acc, result);
+    result.partial = stopped.load();
     if (s.progress) {
         if (result.partial)
-            std::fprintf(stderr, "%s[PathTracer] Rendering... stopped at %d%% (%.4f s)\n",
-                         ::isatty(2) == 1 ? "\r" : "",
-                         int(100.0 * double(tiles_done.load()) / double(std::max<size_t>(num_tiles, 1))),
-                         result.seconds);
+            std::fprintf(stderr, "%s[PathTracer] Rendering... stopped after %d of %d passes (%.4f s)\n",
+                         ::isatty(2) == 1 ? "\r" : "", result.passes, num_passes, result.seconds);
+        else if (result.time_limited)
+            std::fprintf(stderr, "%s[PathTracer] Rendering... time limit: %d of %d passes (%.4f s)\n",
+                         ::isatty(2) == 1 ? "\r" : "", result.passes, num_passes, result.seconds);
         else
             std::fprintf(stderr, "%s[PathTracer] Rendering... 100%%! (%.4fs)%s\n",
                          ::isatty(2) == 1 ? "\r" : "", result.seconds,

@@ -1,6 +1,7 @@
-// Per-pixel random streams: every pixel draws from its own generator derived from the
-// user's seed and the pixel index, so an image is bit-identical for any thread count or
-// tile order (no global engine shared across threads).
+// Per-sample random streams: every camera sample draws from its own generator derived
+// from the user's seed, the pixel index and the sample index, so an image is bit-identical
+// for any split of the work (threads, tiles, passes, MPI ranks, a resumed checkpoint);
+// no global engine is shared across threads.
 #pragma once
 
 #include <cstdint>
@@ -24,6 +25,10 @@ public:
         state_ += mix64(seed ^ 0x9E3779B97F4A7C15ull);
         next_u32();
     }
+    /// The stream of sample `sample` of pixel `pixel`: the sample index is folded into the
+    /// seed, so sample k of a pixel never depends on how many numbers samples 0..k-1 drew.
+    Rng(uint64_t seed, uint64_t pixel, uint64_t sample)
+        : Rng(mix64(seed ^ mix64(sample + 0x632BE59BD9B4E019ull)), pixel) {}
     uint32_t next_u32() {
         uint64_t old = state_;
         state_ = old * 6364136223846793005ull + inc_;

@@ -9,10 +9,13 @@
 #include <csignal>
 #include <cstdio>
 #include <filesystem>
+#include <fstream>
+#include <sstream>
 #include <thread>
 
 #include "accel/accelerator.h"
 #include "renderer/camera.h"
+#include "renderer/checkpoint.h"
 #include "renderer/image.h"
 #include "renderer/integrator.h"
 #include "renderer/lights.h"
@@ -20,6 +23,7 @@
 #include "renderer/scene_geometry.h"
 #include "scenes/load.h"
 #include "tools/cli.h"
+#include "tools/distributed/distributed.h"
 
 namespace {
 
@@ -36,6 +40,23 @@ std::string default_output(const std::string& scene) {
 std::string sibling(const std::string& path, const std::string& suffix, const std::string& ext) {
     std::filesystem::path p(path);
     return (p.parent_path() / (p.stem().string() + suffix + ext)).string();
+}
+
+/// What a checkpoint must match to be resumed: every option's value (new options join
+/// automatically) except those that do not change the samples, and the scene file's bytes.
+std::string fingerprint(const CLI::App& app, const std::string& scene_path, int spp) {
+    static const char* kFree[] = {"s", "t", "f", "q", "quiet", "checkpoint", "checkpoint-every",
+                                  "resume", "time-limit", "cost", "scene", "ocio-config", "tile", "pass"};
+    std::string out, line;
+    std::istringstream lines(app.config_to_str(true, false));
+    while (std::getline(lines, line)) {
+        const std::string key = line.substr(0, line.find('='));
+        if (std::find(std::begin(kFree), std::end(kFree), key) == std::end(kFree)) out += line + ";";
+    }
+    std::ifstream in(scene_path, std::ios::binary);
+    uint64_t h = 1469598103934665603ull;  // FNV-1a of the scene file
+    for (char c; in.get(c);) h = (h ^ uint8_t(c)) * 1099511628211ull;
+    return out + fmt::format("scene-fnv1a={:016x};jitter={}", h, spp > 1);
 }
 
 }  // namespace
@@ -122,8 +143,24 @@ int main(int argc, char** argv) {
                  "(NAME_nodes.png, NAME_tests.png), from the backend that did the work");
     app.add_flag("-q,--quiet", quiet, "No progress lines");
     app.add_flag("--strict", strict, "Refuse a scene the loader warns about (e.g. a missing texture file)");
+    std::string checkpoint, resume;
+    app.add_option("--checkpoint", checkpoint, "Write the accumulated samples to FILE (atomically) "
+                   "between passes, at the end and on Ctrl-C");
+    app.add_option("--checkpoint-every", rs.checkpoint_every, "Seconds between checkpoints (default 60)")
+        ->check(CLI::Range(0.0, 1e9));
+    app.add_option("--resume", resume, "Continue from a checkpoint FILE to -s samples per pixel "
+                   "(bit-identical to an uninterrupted render)")->check(CLI::ExistingFile);
+    app.add_option("--time-limit", rs.time_limit, "Render passes until SECONDS are spent")
+        ->check(CLI::Range(0.0, 1e9));
+    app.add_option("--tile", rs.tile, "Tile size in pixels (default 32), the unit handed to threads and ranks")
+        ->check(CLI::Range(1, 4096));
+    app.add_option("--pass", rs.pass_spp, "Samples per pixel per pass (default: the -a batch, else 8)")
+        ->check(CLI::Range(1, 1 << 20));
 
     tools::parse_or_exit(app, argc, argv, "pathtracer");
+    const dist::World world = dist::init(argc, argv, "pathtracer");
+    if (world.size > 1 && (!checkpoint.empty() || !resume.empty() || rs.time_limit > 0))
+        fail("--checkpoint, --resume and --time-limit work in a single process, not under mpirun");
 
     if (!resolution.empty()) {
         if (resolution[0] < 1 || resolution[1] < 1 || resolution[0] > 65536 || resolution[1] > 65536)
@@ -154,12 +191,13 @@ int main(int argc, char** argv) {
                         : quality == "medium" ? accel::EmbreeQuality::Medium
                                               : accel::EmbreeQuality::High;
     if (output.empty()) output = default_output(scene_path);
-    rs.progress = !quiet;
+    rs.progress = !quiet && world.root();
     rs.cancel = &g_cancel;
 
     const int threads = rs.threads > 0 ? rs.threads : int(std::max(1u, std::thread::hardware_concurrency()));
     std::fprintf(stderr, "[PathTracer] Input scene file: %s\n", scene_path.c_str());
-    std::fprintf(stderr, "[PathTracer] Rendering using %d threads\n", threads);
+    std::fprintf(stderr, "[PathTracer] Rendering using %d threads%s\n", threads,
+                 world.size > 1 ? fmt::format(" on each of {} MPI ranks", world.size).c_str() : "");
 
     // Load.
     std::fprintf(stderr, "[PathTracer] Collecting primitives... ");
@@ -215,8 +253,38 @@ int main(int argc, char** argv) {
         fail(e.what());
     }
 
+    const std::string fp = fingerprint(app, scene_path, rs.spp);
+    renderer::Accumulation resumed;
+    if (!resume.empty()) {
+        try {
+            resumed = renderer::read_checkpoint(resume, fp);
+        } catch (const renderer::CheckpointError& e) {
+            fail(e.what());
+        }
+        rs.resume = &resumed;
+    }
+    if (!checkpoint.empty())
+        rs.on_checkpoint = [&](const renderer::Accumulation& acc, bool) {
+            try {
+                renderer::write_checkpoint(checkpoint, acc, fp);
+            } catch (const renderer::CheckpointError& e) {
+                fail(e.what());
+            }
+        };
+
     std::signal(SIGINT, on_sigint);
-    renderer::RenderResult result = renderer::render(cam.camera, *integrator, *accel, rs);
+    renderer::RenderResult result;
+    const std::unique_ptr<renderer::TileSource> tiles = dist::make_tile_source(world);
+    rs.tiles = tiles.get();
+    try {
+        result = renderer::render(cam.camera, *integrator, *accel, rs);
+    } catch (const std::invalid_argument& e) {
+        fail(e.what());
+    }
+    if (!world.root()) {  // rank 0 has gathered this rank's tiles and writes the files
+        dist::finalize();
+        return 0;
+    }
     std::signal(SIGINT, SIG_DFL);
 
     // Statistics go to stdout, as results.
@@ -249,6 +317,9 @@ int main(int argc, char** argv) {
     }
     std::fprintf(stderr, "Done!\n");
     std::printf("Wrote %s%s\n", output.c_str(), result.partial ? " (partial: interrupted)" : "");
+    if (result.time_limited)
+        std::printf("[PathTracer] Time limit: %.2f samples per pixel of %d\n",
+                    double(result.samples) / double(size_t(rs.width) * rs.height), rs.spp);
 
     // Side images: the sample-rate heat map (course name NAME_rate.png) and the cost maps.
     auto channel = [&](int c) {
@@ -281,5 +352,6 @@ int main(int argc, char** argv) {
         write_heat(renderer::kCostNodes, "_nodes");
         write_heat(renderer::kCostTests, "_tests");
     }
+    dist::finalize();
     return result.partial ? 130 : 0;
 }

@@ -1,0 +1,79 @@
+#include "renderer/checkpoint.h"
+
+#include <fmt/format.h>
+
+#include <cstdio>
+#include <cstring>
+#include <fstream>
+#include <memory>
+
+#include <unistd.h>
+
+namespace renderer {
+
+namespace {
+
+constexpr char kMagic[8] = {'P', 'T', 'C', 'K', 'P', 'T', '1', '\n'};
+
+struct Header {
+    char magic[8];
+    uint32_t pixel_bytes;  ///< sizeof(PixelSums): a layout change is refused, not misread
+    int32_t width, height;
+    uint32_t fingerprint_bytes;
+};
+
+}  // namespace
+
+void write_checkpoint(const std::string& path, const Accumulation& acc, const std::string& fingerprint) {
+    const std::string tmp = fmt::format("{}.tmp{}", path, ::getpid());
+    std::FILE* f = std::fopen(tmp.c_str(), "wb");
+    if (!f) throw CheckpointError(fmt::format("{}: cannot write checkpoint: {}", tmp, std::strerror(errno)));
+    Header h{};
+    std::memcpy(h.magic, kMagic, sizeof kMagic);
+    h.pixel_bytes = sizeof(PixelSums);
+    h.width = acc.width;
+    h.height = acc.height;
+    h.fingerprint_bytes = uint32_t(fingerprint.size());
+    bool ok = std::fwrite(&h, sizeof h, 1, f) == 1 &&
+              std::fwrite(fingerprint.data(), 1, fingerprint.size(), f) == fingerprint.size() &&
+              std::fwrite(acc.pixels.data(), sizeof(PixelSums), acc.pixels.size(), f) == acc.pixels.size();
+    ok = std::fflush(f) == 0 && ::fsync(::fileno(f)) == 0 && ok;
+    ok = std::fclose(f) == 0 && ok;
+    if (!ok || std::rename(tmp.c_str(), path.c_str()) != 0) {
+        const std::string why = std::strerror(errno);
+        std::remove(tmp.c_str());
+        throw CheckpointError(fmt::format("{}: cannot write checkpoint: {}", path, why));
+    }
+}
+
+Accumulation read_checkpoint(const std::string& path, const std::string& fingerprint) {
+    std::ifstream in(path, std::ios::binary);
+    if (!in) throw CheckpointError(fmt::format("{}: cannot open checkpoint", path));
+    Header h{};
+    if (!in.read(reinterpret_cast<char*>(&h), sizeof h) || std::memcmp(h.magic, kMagic, sizeof kMagic) != 0)
+        throw CheckpointError(fmt::format("{}: not a pathtracer checkpoint (bad magic)", path));
+    if (h.pixel_bytes != sizeof(PixelSums))
+        throw CheckpointError(fmt::format("{}: pixel record of {} bytes, this build uses {}", path,
+                                          h.pixel_bytes, sizeof(PixelSums)));
+    if (h.width < 1 || h.height < 1 || h.width > 65536 || h.height > 65536 || h.fingerprint_bytes > (1u << 24))
+        throw CheckpointError(fmt::format("{}: corrupt header (size {}x{})", path, h.width, h.height));
+    std::string fp(h.fingerprint_bytes, '\0');
+    if (!in.read(fp.data(), std::streamsize(fp.size())))
+        throw CheckpointError(fmt::format("{}: truncated header", path));
+    if (fp != fingerprint)
+        throw CheckpointError(fmt::format(
+            "{}: written for another scene or other settings; resume needs the same scene and "
+            "options (only -s, -t, -f, -q, --time-limit and the checkpoint options may change).\n"
+            "  checkpoint: {}\n  this run:   {}", path, fp, fingerprint));
+    Accumulation acc;
+    acc.width = h.width;
+    acc.height = h.height;
+    acc.pixels.resize(size_t(h.width) * size_t(h.height));
+    if (!in.read(reinterpret_cast<char*>(acc.pixels.data()),
+                 std::streamsize(acc.pixels.size() * sizeof(PixelSums))) ||
+        in.peek() != std::char_traits<char>::eof())
+        throw CheckpointError(fmt::format("{}: truncated or overlong pixel data", path));
+    return acc;
+}
+
+}  // namespace renderer

@@ -1,0 +1,76 @@
+#!/usr/bin/env bash
+# Rendering across processes under mpirun: 2 and 3 ranks give the single-process EXR bit
+# for bit (every channel) and the same statistics lines; a rank that fails to load, or is
+# killed, stops every rank within 10 s with a non-zero status and no image.
+# Skips (status 77) when pathtracer was built without MPI or mpirun is absent.
+# Args: TOOLS_DIR SOURCE_DIR SHARED_SCENES_DIR
+set -u
+PT="$1/pathtracer"; SRC="$2"; SCENE="$SRC/scenes/cornell.dae"
+command -v mpirun >/dev/null || { echo "skip: mpirun not installed"; exit 77; }
+ldd "$PT" | grep -q libmpi || { echo "skip: pathtracer built without MPI (PT_ENABLE_MPI=OFF)"; exit 77; }
+TMP=$(mktemp -d); trap 'rm -rf "$TMP"' EXIT
+MPI=(mpirun --allow-run-as-root --oversubscribe -x TMPDIR="$TMP")
+fails=0
+fail() { echo "FAIL $*"; fails=$((fails+1)); }
+ARGS=(-s 8 -r 72 40 -m 3 --seed 11 --tile 8 -q)
+stats() { grep -E "BVH traced|Averaged|camera samples" "$1" | sed 's/Render time [0-9.]* s, [0-9.]* Mrays\/s, //'; }
+
+"$PT" "${ARGS[@]}" -t 2 -f "$TMP/single.exr" "$SCENE" >"$TMP/single.out" 2>"$TMP/err" || fail "single-process render"
+for np in 2 3; do
+  "${MPI[@]}" -np $np "$PT" "${ARGS[@]}" -t $((np - 1)) -f "$TMP/np$np.exr" "$SCENE" >"$TMP/np$np.out" 2>"$TMP/err"
+  st=$?
+  [ $st -eq 0 ] || { fail "-np $np: exit $st"; tail -5 "$TMP/err"; continue; }
+  if idiff -fail 0 -warn 0 "$TMP/single.exr" "$TMP/np$np.exr" >"$TMP/idiff" 2>&1; then
+    echo "ok   -np $np image equals the single-process image bit for bit"
+  else fail "-np $np image differs"; tail -4 "$TMP/idiff"; fi
+  if [ "$(stats "$TMP/single.out")" = "$(stats "$TMP/np$np.out")" ] && [ -n "$(stats "$TMP/single.out")" ]; then
+    echo "ok   -np $np statistics lines are the single-process sums"
+  else fail "-np $np statistics differ"; diff <(stats "$TMP/single.out") <(stats "$TMP/np$np.out"); fi
+  [ "$(grep -c 'Wrote' "$TMP/np$np.out")" -eq 1 ] || fail "-np $np: not exactly one rank wrote the image"
+done
+
+# The tradeoff sweep spread over 3 ranks: every row as in one process (time columns aside).
+TRADEOFF="$1/../benchmarks/tradeoff"
+if [ -x "$TRADEOFF" ]; then
+  "$TRADEOFF" --quick --csv "$TMP/t1.csv" >/dev/null 2>"$TMP/err" || fail "tradeoff single process"
+  "${MPI[@]}" -np 3 "$TRADEOFF" --quick --threads 1 --csv "$TMP/t3.csv" >/dev/null 2>"$TMP/err" \
+    || { fail "tradeoff -np 3: exit $?"; tail -5 "$TMP/err"; }
+  # Columns 12 (seconds) and 20 (build ms) are timings; every other column must agree.
+  if [ -s "$TMP/t1.csv" ] && diff <(cut -d, -f1-11,13-19 "$TMP/t1.csv") <(cut -d, -f1-11,13-19 "$TMP/t3.csv") >/dev/null; then
+    echo "ok   tradeoff -np 3 rows equal the single-process rows"
+  else fail "tradeoff -np 3 rows differ"; fi
+fi
+
+# A rank that cannot load its scene: every rank stops, the message names the rank and why.
+cat >"$TMP/bad_rank.sh" <<EOS
+#!/bin/sh
+scene="$SCENE"
+[ "\$OMPI_COMM_WORLD_RANK" = 1 ] && scene="$TMP/missing.dae"
+exec "$PT" -s 100000 -r 72 40 -t 1 -q -f "$TMP/bad.exr" "\$scene"
+EOS
+start=$(date +%s)
+timeout 60 "${MPI[@]}" -np 3 sh "$TMP/bad_rank.sh" >/dev/null 2>"$TMP/err"; st=$?
+took=$(( $(date +%s) - start ))
+{ [ $st -ne 0 ] && [ $st -ne 124 ] && [ $took -le 10 ] && grep -q "rank 1 of 3 stopped" "$TMP/err" \
+  && grep -q "missing.dae" "$TMP/err" && [ ! -e "$TMP/bad.exr" ]; } \
+  && echo "ok   a rank that fails to load stops the job (status $st, ${took} s)" \
+  || { fail "failed load: status $st after ${took} s"; tail -8 "$TMP/err"; }
+
+# A rank killed mid-render (SIGKILL: no handler runs): every rank stops within 10 s.
+cat >"$TMP/kill_rank.sh" <<EOS
+#!/bin/sh
+[ "\$OMPI_COMM_WORLD_RANK" = 2 ] && (sleep 3; kill -9 \$\$) &
+exec "$PT" -s 100000 -r 72 40 -t 1 -q -f "$TMP/killed.exr" "$SCENE"
+EOS
+start=$(date +%s)
+timeout 60 "${MPI[@]}" -np 3 sh "$TMP/kill_rank.sh" >/dev/null 2>"$TMP/err"; st=$?
+took=$(( $(date +%s) - start ))
+sleep 1
+left=$(pgrep -f "$TMP/killed.exr" | wc -l)
+{ [ $st -ne 0 ] && [ $st -ne 124 ] && [ $took -le 13 ] && [ "$left" -eq 0 ] && [ ! -e "$TMP/killed.exr" ]; } \
+  && echo "ok   a killed rank stops the job (status $st, ${took} s including 3 s before the kill)" \
+  || { fail "killed rank: status $st after ${took} s, $left processes left"; tail -8 "$TMP/err"; }
+
+ls "$TMP"/pathtracer-rank* >/dev/null 2>&1 && fail "a rank's private log was left behind"
+
+[ $fails -eq 0 ] || { echo "$fails failure(s)"; exit 1; }
