@@ -2,6 +2,7 @@
 
 #include <cmath>
 
+#include "renderer/bsdf/bsdf.h"
 #include "renderer/interaction.h"
 #include "renderer/sampling.h"
 #include "renderer/spawn.h"
@@ -57,12 +58,24 @@ Vec3f PathIntegrator::li(const accel::Ray& camera_ray, SampleContext& ctx) const
     ctx.aov.normal = it.ns;
     ctx.aov.depth = it.t;
     ctx.aov.albedo = reflectance(scene_, it);
+    if (it.material < scene_.materials.size() && scene_.materials[it.material].bsdf != scenes::BsdfKind::Diffuse)
+        ctx.aov.albedo = bsdf::aov_albedo(scene_, scene_.materials[it.material], it);
 
     Vec3f L(0.0f);
     Vec3f wo = -accel::normalize(camera_ray.dir);
     if (counts(0)) L += emitted(scene_, it, wo);
     Vec3f beta(1.0f);
     for (int bounce = 1; bounce <= s_.max_depth; ++bounce) {
+        // Non-diffuse materials take the general BSDF path; diffuse ones keep the
+        // Lambert-only loop below, so a diffuse scene costs what it did before.
+        if (it.material < scene_.materials.size()) {
+            const scenes::Material& m = scene_.materials[it.material];
+            if (m.bsdf != scenes::BsdfKind::Diffuse) {
+                if (m.is_emissive() && !m.emitter_reflects) break;
+                if (!scatter(m, bounce, it, wo, beta, L, ctx)) break;
+                continue;
+            }
+        }
         const Vec3f albedo = reflectance(scene_, it);
         if (is_black(albedo)) break;
         // Shade the side the ray arrived on (two-sided diffuse surfaces).
@@ -91,6 +104,74 @@ Vec3f PathIntegrator::li(const accel::Ray& camera_ray, SampleContext& ctx) const
         // vertex, so it is not added here.
     }
     return L;
+}
+
+bool PathIntegrator::scatter(const scenes::Material& m, int bounce, Interaction& it, Vec3f& wo, Vec3f& beta,
+                             Vec3f& L, SampleContext& ctx) const {
+    // The local frame faces wo; `front` remembers which side of the surface that is, for
+    // a dielectric's relative index.
+    const bool front = accel::dot(it.ng, wo) > 0;
+    if (!front) it.ng = -it.ng;
+    if (accel::dot(it.ns, it.ng) < 0) it.ns = -it.ns;
+    const bsdf::Bsdf b = bsdf::make_bsdf(scene_, m, it, front);
+    Vec3f t, bt;
+    onb(it.ns, t, bt);
+    const Vec3f wo_l(accel::dot(wo, t), accel::dot(wo, bt), accel::dot(wo, it.ns));
+    if (!(wo_l.z > 0)) return false;
+    const bool delta = b.is_delta();
+    if (!delta && counts(bounce)) L += beta * direct_bsdf(it, wo_l, t, bt, b, ctx);
+    if (bounce == s_.max_depth) return false;
+    if (bounce >= 2 && s_.rr_continue < 1.0f) {
+        if (ctx.rng.next_float() >= s_.rr_continue) return false;
+        beta = beta / s_.rr_continue;
+    }
+    bsdf::Sample bs;
+    const float u1 = ctx.rng.next_float(), u2 = ctx.rng.next_float(), uc = ctx.rng.next_float();
+    if (!b.sample(wo_l, u1, u2, uc, bs)) return false;
+    const Vec3f wi = t * bs.wi.x + bt * bs.wi.y + it.ns * bs.wi.z;
+    // A direction on the other side of the geometric surface than its lobe says (shading
+    // normals) would leak light through the surface.
+    if ((accel::dot(wi, it.ng) > 0) != (bs.wi.z > 0)) return false;
+    beta *= bs.weight;
+    if (is_black(beta)) return false;
+    const accel::Ray ray = spawn_ray(it.p, it.p_error, it.ng, wi, scale_, s_.offset);
+    accel::Hit hit;
+    if (!ctx.accel.intersect(ray, hit, ctx.stats)) {
+        // Light sampling covered the environment for non-delta lobes.
+        if (delta && counts(bounce)) L += beta * lights_.environment();
+        return false;
+    }
+    it = make_interaction(scene_, geometry_, ray, hit);
+    wo = -wi;
+    // Emission reached through a delta lobe is not reachable by light sampling: count it
+    // here, at the path length of the previous vertex's direct light.
+    if (delta && counts(bounce)) L += beta * emitted(scene_, it, wo);
+    return true;
+}
+
+Vec3f PathIntegrator::direct_bsdf(const Interaction& it, const Vec3f& wo_l, const Vec3f& t, const Vec3f& bt,
+                                  const bsdf::Bsdf& b, SampleContext& ctx) const {
+    Vec3f sum(0.0f);
+    for (size_t i = 0; i < lights_.size(); ++i) {
+        const int n = lights_.is_delta(i) ? 1 : s_.light_samples;
+        Vec3f acc(0.0f);
+        for (int k = 0; k < n; ++k) {
+            LightSample ls;
+            if (!lights_.sample(i, it.p, it.ns, ctx.rng, ls)) continue;
+            const Vec3f wi_l(accel::dot(ls.wi, t), accel::dot(ls.wi, bt), accel::dot(ls.wi, it.ns));
+            if ((accel::dot(it.ng, ls.wi) > 0) != (wi_l.z > 0)) continue;
+            const Vec3f f = b.f(wo_l, wi_l);
+            if (is_black(f)) continue;
+            const accel::Ray shadow = std::isfinite(ls.distance)
+                                          ? spawn_segment(it.p, it.p_error, it.ng, ls.target, ls.target_error,
+                                                          scale_, s_.offset, ls.normal)
+                                          : spawn_ray(it.p, it.p_error, it.ng, ls.wi, scale_, s_.offset);
+            if (ctx.accel.occluded(shadow, ctx.stats)) continue;
+            acc += ls.radiance * f * (std::abs(wi_l.z) / ls.pdf);
+        }
+        sum += acc / float(n);
+    }
+    return sum;
 }
 
 Vec3f PathIntegrator::direct(const Interaction& it, const Vec3f& wo, const Vec3f& albedo,
