@@ -32,6 +32,22 @@ Bsdf make_bsdf(const scenes::Scene& scene, const scenes::Material& m, const Inte
     return Bsdf();
 }
 
+Vec3f mapped_normal(const scenes::Scene& scene, const scenes::Material& m, const Interaction& it) {
+    if (m.normal_texture == scenes::kNoTexture || !(accel::dot(it.dpdu, it.dpdu) > 0)) return it.ns;
+    const Vec3f tex = texel(scene, m.normal_texture, it.uv);
+    const Vec3f tn{(2.0f * tex.x - 1.0f) * m.normal_scale, (2.0f * tex.y - 1.0f) * m.normal_scale, 2.0f * tex.z - 1.0f};
+    Vec3f t = it.dpdu - it.ns * accel::dot(it.ns, it.dpdu);
+    const float tl = accel::length(t);
+    if (!(tl > 0)) return it.ns;
+    t = t / tl;
+    const Vec3f b = accel::cross(it.ns, t);
+    const Vec3f n = t * tn.x + b * tn.y + it.ns * tn.z;
+    const float nl = accel::length(n);
+    if (!(nl > 0) || !std::isfinite(nl)) return it.ns;
+    const Vec3f out = n / nl;
+    return accel::dot(out, it.ng) * accel::dot(it.ns, it.ng) > 0 ? out : it.ns;
+}
+
 Vec3f aov_albedo(const scenes::Scene& scene, const scenes::Material& m, const Interaction& it) {
     using scenes::BsdfKind;
     switch (m.bsdf) {

@@ -49,6 +49,12 @@ private:
 /// the side the geometric normal points to (outside, for a dielectric's index).
 Bsdf make_bsdf(const scenes::Scene& scene, const scenes::Material& m, const Interaction& it, bool front);
 
+/// The shading normal `it.ns` perturbed by the material's tangent-space normal map
+/// (glTF normalTexture: RGB in [0,1] -> [-1,1], x and y scaled by normal_scale, tangent
+/// from the uv mapping, bitangent = n x t). Returns it.ns when there is no map or no
+/// tangent, or when the result would face away from the geometric normal.
+Vec3f mapped_normal(const scenes::Scene& scene, const scenes::Material& m, const Interaction& it);
+
 /// What the albedo AOV reports for a material (its diffuse colour, or its tint).
 Vec3f aov_albedo(const scenes::Scene& scene, const scenes::Material& m, const Interaction& it);
 

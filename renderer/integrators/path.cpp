@@ -111,6 +111,7 @@ bool PathIntegrator::scatter(const scenes::Material& m, int bounce, Interaction&
     // The local frame faces wo; `front` remembers which side of the surface that is, for
     // a dielectric's relative index.
     const bool front = accel::dot(it.ng, wo) > 0;
+    it.ns = bsdf::mapped_normal(scene_, m, it);
     if (!front) it.ng = -it.ng;
     if (accel::dot(it.ns, it.ng) < 0) it.ns = -it.ns;
     const bsdf::Bsdf b = bsdf::make_bsdf(scene_, m, it, front);
