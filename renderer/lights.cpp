@@ -133,6 +133,18 @@ LightSet::LightSet(const scenes::Scene& scene, std::vector<std::string>& notes) 
                 l.normal = accel::normalize(sl.direction);  // direction light travels
                 break;
             case scenes::LightType::Environment:
+                if (sl.texture != scenes::kNoTexture && sl.texture < scene.textures.size()) {
+                    // One image environment; a constant one beside it is folded into neither.
+                    env_map_ = EnvironmentMap(scene.textures[sl.texture], scene.up, sl.radiance);
+                    if (env_ >= 0) {
+                        lights_[size_t(env_)].radiance = Vec3f(0.0f);
+                        notes.push_back("an environment image replaces the constant environment");
+                        continue;
+                    }
+                    l.kind = Kind::Environment;
+                    env_ = int(lights_.size());
+                    break;
+                }
                 if (env_ >= 0) {
                     lights_[size_t(env_)].radiance += sl.radiance;
                     continue;
@@ -259,6 +271,9 @@ bool LightSet::sample(size_t i, const Vec3f& p, const Vec3f& n, Rng& rng, LightS
             out.delta = true;
             return true;
         case Kind::Environment: {
+            out.distance = accel::kInfinity;
+            if (!env_map_.empty())
+                return env_map_.sample(rng.next_float(), rng.next_float(), out.wi, out.pdf, out.radiance);
             const Vec3f local = cosine_hemisphere(rng.next_float(), rng.next_float());
             out.wi = to_world(local, n);
             out.distance = accel::kInfinity;

@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "accel/math.h"
+#include "renderer/envmap.h"
 #include "renderer/rng.h"
 #include "scenes/scene.h"
 
@@ -48,7 +49,11 @@ public:
         return k == Kind::Point || k == Kind::Spot || k == Kind::Directional;
     }
     bool has_environment() const { return env_ >= 0; }
-    Vec3f environment() const { return has_environment() ? lights_[size_t(env_)].radiance : Vec3f(0.0f); }
+    /// Radiance arriving from direction `dir` from infinitely far away.
+    Vec3f environment(const Vec3f& dir) const {
+        if (!has_environment()) return Vec3f(0.0f);
+        return env_map_.empty() ? lights_[size_t(env_)].radiance : env_map_.radiance(dir);
+    }
 
     /// Samples light `i` as seen from point `p` with unit normal `n` (the environment is
     /// sampled by a cosine lobe around n). Returns false when the sample carries nothing.
@@ -77,6 +82,7 @@ private:
     std::vector<Tri> tris_;    // emissive triangles, grouped by mesh light
     std::vector<float> cdf_;   // per mesh light: running area, normalised to 1 at its end
     int env_ = -1;
+    EnvironmentMap env_map_;  // an image environment (-e), importance-sampled
     const scenes::Scene* scene_ = nullptr;  // for emission textures
 };
 

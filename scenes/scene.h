@@ -117,6 +117,9 @@ struct Light {
     Vec3f edge_u;      ///< area: full edge vector (centre +/- edge_u/2)
     Vec3f edge_v;      ///< area: full edge vector
     float spot_cos_inner = 1.0f, spot_cos_outer = 0.0f;
+    /// Environment: latitude-longitude radiance image in Scene::textures (times
+    /// `radiance`); kNoTexture = constant.
+    uint32_t texture = kNoTexture;
 };
 
 struct Camera {

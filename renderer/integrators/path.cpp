@@ -53,7 +53,7 @@ bool PathIntegrator::counts(int bounce) const {
 Vec3f PathIntegrator::li(const accel::Ray& camera_ray, SampleContext& ctx) const {
     accel::Hit hit;
     if (!ctx.accel.intersect(camera_ray, hit, ctx.stats))
-        return counts(0) ? lights_.environment() : Vec3f(0.0f);
+        return counts(0) ? lights_.environment(accel::normalize(camera_ray.dir)) : Vec3f(0.0f);
     Interaction it = make_interaction(scene_, geometry_, camera_ray, hit);
     ctx.aov.normal = it.ns;
     ctx.aov.depth = it.t;
@@ -139,7 +139,7 @@ bool PathIntegrator::scatter(const scenes::Material& m, int bounce, Interaction&
     accel::Hit hit;
     if (!ctx.accel.intersect(ray, hit, ctx.stats)) {
         // Light sampling covered the environment for non-delta lobes.
-        if (delta && counts(bounce)) L += beta * lights_.environment();
+        if (delta && counts(bounce)) L += beta * lights_.environment(wi);
         return false;
     }
     it = make_interaction(scene_, geometry_, ray, hit);
@@ -218,7 +218,7 @@ Vec3f PathIntegrator::direct_hemisphere(const Interaction& it, const Vec3f& albe
         if (ctx.accel.intersect(ray, hit, ctx.stats))
             Le = emitted(scene_, make_interaction(scene_, geometry_, ray, hit), -wi);
         else
-            Le = lights_.environment();
+            Le = lights_.environment(wi);
         sum += Le * f * (local.z / kUniformHemispherePdf);
     }
     return sum / float(n);
