@@ -33,6 +33,11 @@ check bad-samples 2 "-s" -- "$PT" -s 0 "$SRC/scenes/cornell.dae"
 check bad-accel 2 "--accel" -- "$PT" --accel=octree "$SRC/scenes/cornell.dae"
 check bad-cell 2 "-p" -- "$PT" -r 10 10 -p 20 0 5 5 "$SRC/scenes/cornell.dae"
 check no-scene 2 "scene" -- "$PT"
+printf '50 37.5 1.33 0.1 100\n0 -4 1\n0 0 zz\n' > "$TMP/cam.txt"
+check bad-camera-file 2 "cam.txt: field 11 \\(target.z\\)" -- "$PT" -c "$TMP/cam.txt" -r 8 6 "$SRC/scenes/cornell.dae"
+printf 'not an image' > "$TMP/sky.exr"
+check bad-env-map 2 "sky.exr: cannot read the environment map" -- "$PT" -e "$TMP/sky.exr" -r 8 6 "$SRC/scenes/cornell.dae"
+check bad-lens 2 "-b" -- "$PT" -b -1 "$SRC/scenes/cornell.dae"
 
 # Every bad-input class: exit status 2 and a message naming the file (and the element).
 mkdir -p "$TMP/bad"
