@@ -59,6 +59,23 @@ public:
     /// sampled by a cosine lobe around n). Returns false when the sample carries nothing.
     bool sample(size_t i, const Vec3f& p, const Vec3f& n, Rng& rng, LightSample& out) const;
 
+    /// For multiple importance sampling (renderer/integrators/path.cpp): the light that
+    /// mesh `mesh` / sphere `sphere` / the environment is, or -1 if it is not sampled.
+    int light_of_mesh(uint32_t mesh) const { return mesh < mesh_light_.size() ? mesh_light_[mesh] : -1; }
+    int light_of_sphere(uint32_t sphere) const {
+        return sphere < sphere_light_.size() ? sphere_light_[sphere] : -1;
+    }
+    int environment_index() const { return env_; }
+    /// Can a ray find light i (so a BSDF sample competes with its light samples)?
+    bool hittable(size_t i) const {
+        const Kind k = lights_[i].kind;
+        return k == Kind::Mesh || k == Kind::Sphere || k == Kind::Environment;
+    }
+    /// Solid-angle density with which sample(i, p, n) returns direction wi toward the
+    /// point of light i at distance `dist` whose geometric normal is `nq` (unused for the
+    /// environment).
+    float pdf(size_t i, const Vec3f& n, const Vec3f& wi, float dist, const Vec3f& nq) const;
+
     /// Summary line per kind, for stderr.
     std::string summary() const;
 
@@ -82,6 +99,7 @@ private:
     std::vector<Tri> tris_;    // emissive triangles, grouped by mesh light
     std::vector<float> cdf_;   // per mesh light: running area, normalised to 1 at its end
     int env_ = -1;
+    std::vector<int> mesh_light_, sphere_light_;  // scene mesh / sphere -> light, -1 if none
     EnvironmentMap env_map_;  // an image environment (-e), importance-sampled
     const scenes::Scene* scene_ = nullptr;  // for emission textures
 };

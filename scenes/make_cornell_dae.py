@@ -97,7 +97,7 @@ CGL_BSDFS = {
 MATERIAL_SPHERES = [
     ("sphereMirror", (-0.45, 0.35, 0.38), 0.38, "mirror"),
     ("sphereGlass", (0.45, -0.3, 0.3), 0.3, "glass"),
-    ("sphereGold", (0.35, 0.55, 0.22), 0.22, "gold"),
+    ("sphereGold", (0.05, 0.75, 0.2), 0.2, "gold"),
 ]
 
 

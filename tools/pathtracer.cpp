@@ -93,6 +93,7 @@ int main(int argc, char** argv) {
     std::string ocio_config;
     std::string env_map, camera_file;
     float lens_radius = -1, focal_distance = -1;
+    std::string strategy = "mis";
 
     app.add_option("scene", scene_path, "Scene file (.dae, .gltf, .glb)")->required();
     app.add_option("-s", rs.spp, "Samples per pixel (the cap under -a)")->check(CLI::Range(1, 1 << 20));
@@ -109,6 +110,8 @@ int main(int argc, char** argv) {
     app.add_option("-b", lens_radius, "Thin lens radius (0 = pinhole)")->check(CLI::Range(0.0f, 1e30f));
     app.add_option("-d", focal_distance, "Focal distance of the thin lens (default: to the scene centre)")
         ->check(CLI::PositiveNumber);
+    app.add_option("--strategy", strategy, "Direct light at non-diffuse surfaces: mis | light | bsdf")
+        ->check(CLI::IsMember({"mis", "light", "bsdf"}));
     app.add_option("-c", camera_file, "Camera settings file of the course application (overrides the scene's camera)");
     app.add_option("-f", output, "Output image (.png, .jpg, .exr; default: SCENE-NAME.png)");
     app.add_option("-r", resolution, "Image size W H (default 800 600)")->expected(2);
@@ -174,6 +177,9 @@ int main(int argc, char** argv) {
         rs.adaptive_tol = adaptive[1];
     }
     is.accumulate = accumulate == 1;
+    is.strategy = strategy == "light"  ? renderer::IntegratorSettings::Strategy::Light
+                  : strategy == "bsdf" ? renderer::IntegratorSettings::Strategy::Bsdf
+                                       : renderer::IntegratorSettings::Strategy::Mis;
     is.offset = offset == "epsilon" ? renderer::OffsetMode::Epsilon : renderer::OffsetMode::ErrorBound;
     ao.split = bvh == "midpoint" ? accel::BvhSplit::Midpoint : accel::BvhSplit::Sah;
     ao.triangle = tri == "watertight" ? accel::TriangleTest::Watertight : accel::TriangleTest::Fast;

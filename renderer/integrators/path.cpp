@@ -33,6 +33,13 @@ Vec3f reflectance(const scenes::Scene& scene, const Interaction& it) {
 
 bool is_black(const Vec3f& v) { return !(v.x > 0 || v.y > 0 || v.z > 0); }
 
+/// Veach's power heuristic (beta = 2; Veach 1997, 9.2.4): the weight of the strategy
+/// with density `a` against one with density `b` (each already times its sample count).
+float mis_weight(float a, float b) {
+    const float a2 = a * a, b2 = b * b;
+    return a2 + b2 > 0 ? a2 / (a2 + b2) : 0.0f;
+}
+
 }  // namespace
 
 PathIntegrator::PathIntegrator(const scenes::Scene& scene, const SceneGeometry& geometry,
@@ -120,7 +127,8 @@ bool PathIntegrator::scatter(const scenes::Material& m, int bounce, Interaction&
     const Vec3f wo_l(accel::dot(wo, t), accel::dot(wo, bt), accel::dot(wo, it.ns));
     if (!(wo_l.z > 0)) return false;
     const bool delta = b.is_delta();
-    if (!delta && counts(bounce)) L += beta * direct_bsdf(it, wo_l, t, bt, b, ctx);
+    using Strategy = IntegratorSettings::Strategy;
+    if (!delta && counts(bounce) && s_.strategy != Strategy::Bsdf) L += beta * direct_bsdf(it, wo_l, t, bt, b, ctx);
     if (bounce == s_.max_depth) return false;
     if (bounce >= 2 && s_.rr_continue < 1.0f) {
         if (ctx.rng.next_float() >= s_.rr_continue) return false;
@@ -129,6 +137,12 @@ bool PathIntegrator::scatter(const scenes::Material& m, int bounce, Interaction&
     bsdf::Sample bs;
     const float u1 = ctx.rng.next_float(), u2 = ctx.rng.next_float(), uc = ctx.rng.next_float();
     if (!b.sample(wo_l, u1, u2, uc, bs)) return false;
+    // Weight of an emitter found by the BSDF sample, given the light strategy's density.
+    const auto bsdf_weight = [&](float light_pdf) {
+        if (delta || s_.strategy == Strategy::Bsdf) return 1.0f;
+        if (s_.strategy == Strategy::Light) return light_pdf > 0 ? 0.0f : 1.0f;
+        return mis_weight(bs.pdf, light_pdf);
+    };
     const Vec3f wi = t * bs.wi.x + bt * bs.wi.y + it.ns * bs.wi.z;
     // A direction on the other side of the geometric surface than its lobe says (shading
     // normals) would leak light through the surface.
@@ -137,16 +151,35 @@ bool PathIntegrator::scatter(const scenes::Material& m, int bounce, Interaction&
     if (is_black(beta)) return false;
     const accel::Ray ray = spawn_ray(it.p, it.p_error, it.ng, wi, scale_, s_.offset);
     accel::Hit hit;
+    const Vec3f n_here = it.ns;
     if (!ctx.accel.intersect(ray, hit, ctx.stats)) {
-        // Light sampling covered the environment for non-delta lobes.
-        if (delta && counts(bounce)) L += beta * lights_.environment(wi);
+        // Through a delta lobe light sampling cannot find the environment: all of it is
+        // counted here. Otherwise both strategies found it: MIS weight.
+        if (counts(bounce)) {
+            const int e = lights_.environment_index();
+            const float w = e < 0 ? 1.0f
+                                  : bsdf_weight(float(s_.light_samples) *
+                                                lights_.pdf(size_t(e), n_here, wi, 0.0f, Vec3f(0.0f)));
+            L += beta * lights_.environment(wi) * w;
+        }
         return false;
     }
     it = make_interaction(scene_, geometry_, ray, hit);
     wo = -wi;
     // Emission reached through a delta lobe is not reachable by light sampling: count it
-    // here, at the path length of the previous vertex's direct light.
-    if (delta && counts(bounce)) L += beta * emitted(scene_, it, wo);
+    // here, at the path length of the previous vertex's direct light. Through a non-delta
+    // lobe it is weighted against light sampling of the same emitter (Veach 1997, 9.2).
+    if (counts(bounce)) {
+        const Vec3f Le = emitted(scene_, it, wo);
+        if (!is_black(Le)) {
+            const GeomSource& src = geometry_.source(hit.geom_id);
+            const int li = src.kind == GeomSource::Mesh ? lights_.light_of_mesh(src.mesh)
+                                                        : lights_.light_of_sphere(hit.prim_id);
+            const float w =
+                bsdf_weight(li < 0 ? 0.0f : float(s_.light_samples) * lights_.pdf(size_t(li), n_here, wi, it.t, it.ng));
+            L += beta * Le * w;
+        }
+    }
     return true;
 }
 
@@ -163,12 +196,17 @@ Vec3f PathIntegrator::direct_bsdf(const Interaction& it, const Vec3f& wo_l, cons
             if ((accel::dot(it.ng, ls.wi) > 0) != (wi_l.z > 0)) continue;
             const Vec3f f = b.f(wo_l, wi_l);
             if (is_black(f)) continue;
+            // Lights a BSDF sample can also hit share the estimate by the power heuristic;
+            // n light samples count n times in the light strategy's density.
+            const float w = ls.delta || !lights_.hittable(i) || s_.strategy == IntegratorSettings::Strategy::Light
+                                ? 1.0f
+                                : mis_weight(float(n) * ls.pdf, b.pdf(wo_l, wi_l));
             const accel::Ray shadow = std::isfinite(ls.distance)
                                           ? spawn_segment(it.p, it.p_error, it.ng, ls.target, ls.target_error,
                                                           scale_, s_.offset, ls.normal)
                                           : spawn_ray(it.p, it.p_error, it.ng, ls.wi, scale_, s_.offset);
             if (ctx.accel.occluded(shadow, ctx.stats)) continue;
-            acc += ls.radiance * f * (std::abs(wi_l.z) / ls.pdf);
+            acc += ls.radiance * f * (std::abs(wi_l.z) * w / ls.pdf);
         }
         sum += acc / float(n);
     }
