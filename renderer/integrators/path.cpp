@@ -129,8 +129,11 @@ bool PathIntegrator::scatter(const scenes::Material& m, int bounce, Interaction&
     const bool delta = b.is_delta();
     using Strategy = IntegratorSettings::Strategy;
     if (!delta && counts(bounce) && s_.strategy != Strategy::Bsdf) L += beta * direct_bsdf(it, wo_l, t, bt, b, ctx);
-    if (bounce == s_.max_depth) return false;
-    if (bounce >= 2 && s_.rr_continue < 1.0f) {
+    // At the last vertex the BSDF sample still runs when its emission counts: it is the
+    // other half of the MIS estimate of direct light (and all of it through delta lobes).
+    const bool last = bounce == s_.max_depth;
+    if (last && !counts(bounce)) return false;
+    if (!last && bounce >= 2 && s_.rr_continue < 1.0f) {
         if (ctx.rng.next_float() >= s_.rr_continue) return false;
         beta = beta / s_.rr_continue;
     }
@@ -180,7 +183,7 @@ bool PathIntegrator::scatter(const scenes::Material& m, int bounce, Interaction&
             L += beta * Le * w;
         }
     }
-    return true;
+    return !last;
 }
 
 Vec3f PathIntegrator::direct_bsdf(const Interaction& it, const Vec3f& wo_l, const Vec3f& t, const Vec3f& bt,
