@@ -29,7 +29,7 @@ CAM="--cam-pos 0 -3.9 0.85 --cam-target 0 0 0.75 --cam-up 0 0 1 --fov 42"
 r() { local name=$1; shift; /usr/bin/time -f "$name wall %e s" $PT -q "$@" -f $name.png > $name.log 2>&1; }
 r gems_glass -r 320 240 -s 128 -m 8 $S/CBgems.dae
 r cornell_materials -r 320 240 -s 128 -m 8 $CAM $SRC/scenes/cornell_materials.dae
-r cornell_dof -r 320 240 -s 128 -m 8 $CAM -b 0.08 -d 3.55 $SRC/scenes/cornell_materials.dae
+r cornell_dof -r 320 240 -s 128 -m 8 $CAM -b 0.15 -d 4.25 $SRC/scenes/cornell_materials.dae
 r helmet_sky -r 320 240 -s 64 -m 6 -e sky.exr $G/DamagedHelmet.glb
 r boombox_sky -r 320 240 -s 64 -m 6 -e sky.exr $G/BoomBox/BoomBox.gltf
 r suzanne_sky -r 320 240 -s 64 -m 6 -e sky.exr $G/Suzanne/Suzanne.gltf
