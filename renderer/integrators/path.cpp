@@ -186,6 +186,14 @@ bool PathIntegrator::scatter(const scenes::Material& m, int bounce, Interaction&
     return !last;
 }
 
+bool PathIntegrator::occluded(const Interaction& it, const LightSample& ls, SampleContext& ctx) const {
+    const accel::Ray shadow = std::isfinite(ls.distance)
+                                  ? spawn_segment(it.p, it.p_error, it.ng, ls.target, ls.target_error, scale_,
+                                                  s_.offset, ls.normal)
+                                  : spawn_ray(it.p, it.p_error, it.ng, ls.wi, scale_, s_.offset);
+    return ctx.accel.occluded(shadow, ctx.stats);
+}
+
 Vec3f PathIntegrator::direct_bsdf(const Interaction& it, const Vec3f& wo_l, const Vec3f& t, const Vec3f& bt,
                                   const bsdf::Bsdf& b, SampleContext& ctx) const {
     Vec3f sum(0.0f);
@@ -204,11 +212,7 @@ Vec3f PathIntegrator::direct_bsdf(const Interaction& it, const Vec3f& wo_l, cons
             const float w = ls.delta || !lights_.hittable(i) || s_.strategy == IntegratorSettings::Strategy::Light
                                 ? 1.0f
                                 : mis_weight(float(n) * ls.pdf, b.pdf(wo_l, wi_l));
-            const accel::Ray shadow = std::isfinite(ls.distance)
-                                          ? spawn_segment(it.p, it.p_error, it.ng, ls.target, ls.target_error,
-                                                          scale_, s_.offset, ls.normal)
-                                          : spawn_ray(it.p, it.p_error, it.ng, ls.wi, scale_, s_.offset);
-            if (ctx.accel.occluded(shadow, ctx.stats)) continue;
+            if (occluded(it, ls, ctx)) continue;
             acc += ls.radiance * f * (std::abs(wi_l.z) * w / ls.pdf);
         }
         sum += acc / float(n);
@@ -233,11 +237,7 @@ Vec3f PathIntegrator::direct_lights(const Interaction& it, const Vec3f& albedo, 
             if (!lights_.sample(i, it.p, it.ns, ctx.rng, ls)) continue;
             const float cos_s = accel::dot(it.ns, ls.wi);
             if (!(cos_s > 0) || accel::dot(it.ng, ls.wi) <= 0) continue;
-            const accel::Ray shadow = std::isfinite(ls.distance)
-                                          ? spawn_segment(it.p, it.p_error, it.ng, ls.target, ls.target_error,
-                                                          scale_, s_.offset, ls.normal)
-                                          : spawn_ray(it.p, it.p_error, it.ng, ls.wi, scale_, s_.offset);
-            if (ctx.accel.occluded(shadow, ctx.stats)) continue;
+            if (occluded(it, ls, ctx)) continue;
             acc += ls.radiance * f * (cos_s / ls.pdf);
         }
         sum += acc / float(n);

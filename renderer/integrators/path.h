@@ -30,6 +30,8 @@ private:
                  SampleContext& ctx) const;
     Vec3f direct_bsdf(const Interaction& it, const Vec3f& wo_l, const Vec3f& t, const Vec3f& bt,
                       const bsdf::Bsdf& b, SampleContext& ctx) const;
+    /// Is the light sample's shadow ray (segment, or ray for infinitely far lights) blocked?
+    bool occluded(const Interaction& it, const LightSample& ls, SampleContext& ctx) const;
     /// Does the light of path length `bounce` (0 = emission seen directly) count?
     bool counts(int bounce) const;
 

@@ -648,8 +648,16 @@ uint32_t Loader::material_index(pugi::xml_node mat) {
 /// defaults in scenes/scene.h. False for an element name we do not model.
 bool Loader::read_cgl_bsdf(pugi::xml_node bsdf, Material& m) const {
     const std::string_view kind = bsdf.name();
+    // A spectrum is "r g b" (alpha ignored) or one number for all three channels.
     auto color = [&](const char* name, Vec3f& out) {
-        if (pugi::xml_node c = bsdf.child(name)) out = read_color(c);
+        pugi::xml_node c = bsdf.child(name);
+        if (!c) return;
+        float v[4] = {0, 0, 0, 0};
+        const size_t got = read_floats_upto(c, v, 4);
+        if (got == 1) v[1] = v[2] = v[0];
+        else if (got != 3 && got != 4) fail(c, fmt::format("needs 1 or 3 numbers, has {}", got));
+        if (v[0] < 0 || v[1] < 0 || v[2] < 0) fail(c, "must not be negative");
+        out = Vec3f(v[0], v[1], v[2]);
     };
     auto positive = [&](const char* name, float& out) {
         if (pugi::xml_node c = bsdf.child(name)) {

@@ -351,6 +351,15 @@ TEST(ColladaMaterials, CglMicrofacetReadsAlphaEtaK) {
     EXPECT_EQ(m.k, Vec3f(3.2f, 2.5f, 1.9f));
 }
 
+TEST(ColladaMaterials, CglSpectrumMayBeOneNumber) {
+    const std::string libs =
+        geometries(tri_geometry("M")) + material("al", "", "<microfacet><alpha>0.1</alpha><eta>1.2</eta><k>7</k></microfacet>");
+    const Scene s = load(dae(libs, node("n", "", "tri", bind("M", "al"))));
+    const auto& m = s.materials.at(s.meshes.at(0).material);
+    EXPECT_EQ(m.eta, Vec3f(1.2f));
+    EXPECT_EQ(m.k, Vec3f(7.0f));
+}
+
 TEST(ColladaMaterials, BadBsdfParametersNameTheElement) {
     const std::string libs = geometries(tri_geometry("M")) +
                              material("bad", "", "<glass><ior>-1</ior></glass>");

@@ -13,6 +13,7 @@
 #include "renderer/lights.h"
 #include "renderer/scene_geometry.h"
 #include "renderer/sampling.h"
+#include "tests/render/render_world.h"
 
 using accel::Vec3f;
 using namespace renderer;
@@ -23,36 +24,22 @@ struct Estimate {
     double mean = 0, se = 0;
 };
 
-struct World {
-    scenes::Scene scene;
-    std::unique_ptr<SceneGeometry> geometry;
-    std::unique_ptr<accel::Accelerator> accel;
-    std::unique_ptr<LightSet> lights;
-    std::unique_ptr<PathIntegrator> integrator;
-    std::vector<std::string> notes;
-
-    void build(const IntegratorSettings& is) {
-        geometry = std::make_unique<SceneGeometry>(scene);
-        accel = build_accelerator("custom", *geometry, {}, false);
-        lights = std::make_unique<LightSet>(scene, notes);
-        integrator = std::make_unique<PathIntegrator>(scene, *geometry, *lights, is);
+/// Mean and standard error of the integrator's estimate along `r` over n samples.
+Estimate li(const World& w, const accel::Ray& r, int n, int channel = 1) {
+    double s1 = 0, s2 = 0;
+    accel::TraceStats st;
+    for (int i = 0; i < n; ++i) {
+        Rng rng(17, uint64_t(i));
+        SampleContext ctx{*w.accel, st, rng, {}};
+        const double v = w.integrator->li(r, ctx)[channel];
+        s1 += v;
+        s2 += v * v;
     }
-    Estimate li(const accel::Ray& ray, int n, int channel = 1) const {
-        double s1 = 0, s2 = 0;
-        accel::TraceStats st;
-        for (int i = 0; i < n; ++i) {
-            Rng rng(17, uint64_t(i));
-            SampleContext ctx{*accel, st, rng, {}};
-            const double v = integrator->li(ray, ctx)[channel];
-            s1 += v;
-            s2 += v * v;
-        }
-        Estimate e;
-        e.mean = s1 / n;
-        e.se = std::sqrt(std::max(0.0, (s2 / n - e.mean * e.mean) / (n - 1)));
-        return e;
-    }
-};
+    Estimate e;
+    e.mean = s1 / n;
+    e.se = std::sqrt(std::max(0.0, (s2 / n - e.mean * e.mean) / (n - 1)));
+    return e;
+}
 
 scenes::Texture constant_image(uint32_t w, uint32_t h, float v) {
     scenes::Texture t;
@@ -107,11 +94,11 @@ TEST(Environment, ConstantMapOnDiffuseConvexObjectReadsAlbedoTimesE) {
     is.max_depth = 1;
     w.build(is);
     for (const Vec3f& d : {Vec3f(0, -1, 0), Vec3f(0.3f, -1, 0.5f), Vec3f(0, 0.2f, -1)}) {
-        const Estimate e = w.li(ray(-d * 5.0f, d), 4000);
+        const Estimate e = li(w, ray(-d * 5.0f, d), 4000);
         EXPECT_NEAR(e.mean, 0.5 * E, 4 * e.se + 1e-3) << "view " << d.x << " " << d.y << " " << d.z;
     }
     // A camera ray that misses sees the map itself.
-    EXPECT_NEAR(w.li(ray(Vec3f(0, -5, 0), Vec3f(0, -1, 0)), 4).mean, E, 1e-5);
+    EXPECT_NEAR(li(w, ray(Vec3f(0, -5, 0), Vec3f(0, -1, 0)), 4).mean, E, 1e-5);
 }
 
 TEST(Environment, PdfMatchesSamplesAndIntegratesToOne) {
@@ -175,7 +162,7 @@ TEST(Materials, MirrorSphereShowsTheEnvironment) {
         return 0u;
     });
     w.build({});
-    const Estimate e = w.li(ray(Vec3f(0.2f, -5, 0.1f), Vec3f(0, 1, 0)), 16);
+    const Estimate e = li(w, ray(Vec3f(0.2f, -5, 0.1f), Vec3f(0, 1, 0)), 16);
     EXPECT_NEAR(e.mean, 0.7 * 3.0, 1e-4);
 }
 
@@ -193,7 +180,7 @@ TEST(Materials, GlassSphereUnderConstantSkyIsInvisible) {
     is.rr_continue = 1.0f;
     w.build(is);
     for (float x : {0.0f, 0.5f, 0.9f}) {
-        const Estimate e = w.li(ray(Vec3f(x, -5, 0), Vec3f(0, 1, 0)), 4000);
+        const Estimate e = li(w, ray(Vec3f(x, -5, 0), Vec3f(0, 1, 0)), 4000);
         EXPECT_NEAR(e.mean, 1.5, 4 * e.se + 5e-3) << "offset " << x;
     }
 }
@@ -299,7 +286,7 @@ TEST(Mis, GlossyFloorWithLightsOfSeveralSizes) {
         is.strategy = k == 0 ? S::Mis : k == 1 ? S::Light : S::Bsdf;
         w.integrator = std::make_unique<PathIntegrator>(w.scene, *w.geometry, *w.lights, is);
         for (const Vec3f& t : targets) {
-            est[k].push_back(w.li(ray(cam, t - cam), n));
+            est[k].push_back(li(w, ray(cam, t - cam), n));
             var_sum[k] += est[k].back().se * est[k].back().se;
         }
     }

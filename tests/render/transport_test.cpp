@@ -14,6 +14,7 @@
 #include "renderer/render.h"
 #include "renderer/scene_geometry.h"
 #include "scenes/load.h"
+#include "tests/render/render_world.h"
 
 using accel::Vec3f;
 using namespace renderer;
@@ -59,22 +60,6 @@ scenes::Mesh quad(Vec3f a, Vec3f b, Vec3f c, Vec3f d, uint32_t material) {
     return m;
 }
 
-/// Everything a render needs, kept alive together.
-struct World {
-    scenes::Scene scene;
-    std::unique_ptr<SceneGeometry> geometry;
-    std::unique_ptr<accel::Accelerator> accel;
-    std::unique_ptr<LightSet> lights;
-    std::unique_ptr<PathIntegrator> integrator;
-    std::vector<std::string> notes;
-
-    void build(const IntegratorSettings& is, const std::string& backend = "custom") {
-        geometry = std::make_unique<SceneGeometry>(scene);
-        accel = build_accelerator(backend, *geometry, {}, false);
-        lights = std::make_unique<LightSet>(scene, notes);
-        integrator = std::make_unique<PathIntegrator>(scene, *geometry, *lights, is);
-    }
-};
 
 /// White furnace: the camera inside a closed sphere that emits Le and reflects albedo a.
 /// Every bounce adds a^k Le, so radiance is Le / (1 - a) (truncated at the depth cap).
