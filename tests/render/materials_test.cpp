@@ -220,7 +220,7 @@ TEST(CourseCamera, SettingsFileAndErrors) {
     EXPECT_NE(e.find("field 3 (ar)"), std::string::npos) << e;
     e = error_of("lens1.txt", base + "3.5\n");
     EXPECT_NE(e.find("lensRadius"), std::string::npos) << e;
-    e = error_of("fov.txt", "0" + base.substr(2));
+    e = error_of("fov.txt", std::string("0 37.5 1.3333 0.1 100\n0 -4 1\n0 0 1\n0 0 4 1 20\n1 0 0 0 0 -1 0 1 0\n800 600 1.2\n"));
     EXPECT_NE(e.find("hFov"), std::string::npos) << e;
 }
 
