@@ -371,6 +371,31 @@ TEST(GltfMaterials, EmissiveStrengthAndDefaults) {
     EXPECT_LE(ignored_lines, 1) << "ignored features are listed on one line";
 }
 
+TEST(GltfMaterials, MetallicRoughnessTransmissionAndIor) {
+    Doc d = triangle_doc();
+    auto doc = [&](const std::string& material) {
+        return d.json("\"materials\":[" + material + "],\"meshes\":[{\"primitives\":[{\"attributes\":{\"POSITION\":0},"
+                      "\"indices\":1,\"material\":0}]}],\"scenes\":[{\"nodes\":[0]}],\"nodes\":[{\"mesh\":0}]");
+    };
+    Scene sc = load(doc("{\"name\":\"glass\",\"pbrMetallicRoughness\":{\"metallicFactor\":0,\"roughnessFactor\":0.1},"
+                        "\"extensions\":{\"KHR_materials_transmission\":{\"transmissionFactor\":0.9},"
+                        "\"KHR_materials_ior\":{\"ior\":1.7}}}"));
+    const scenes::Material& m = sc.materials.at(0);
+    EXPECT_EQ(m.bsdf, scenes::BsdfKind::MetallicRoughness);
+    EXPECT_FLOAT_EQ(m.metallic, 0.0f);
+    EXPECT_FLOAT_EQ(m.roughness, 0.1f);
+    EXPECT_FLOAT_EQ(m.transmission, 0.9f);
+    EXPECT_FLOAT_EQ(m.ior, 1.7f);
+    EXPECT_FALSE(has_note(sc, "KHR_materials_transmission")) << "modelled, not ignored";
+    // metallic 0, roughness 1, no maps: close enough to Lambert to stay on the fast path.
+    Scene plain = load(doc("{\"pbrMetallicRoughness\":{\"metallicFactor\":0,\"roughnessFactor\":1}}"));
+    EXPECT_EQ(plain.materials.at(0).bsdf, scenes::BsdfKind::Diffuse);
+    expect_error(doc("{\"name\":\"B\",\"extensions\":{\"KHR_materials_ior\":{\"ior\":0.5}}}"),
+                 {"material 'B'", "ior"});
+    expect_error(doc("{\"name\":\"R\",\"pbrMetallicRoughness\":{\"roughnessFactor\":2}}"),
+                 {"material 'R'", "roughnessFactor"});
+}
+
 TEST(GltfLights, PunctualKinds) {
     Doc d = triangle_doc();
     const double s = std::sqrt(0.5);

@@ -11,6 +11,7 @@
 
 #include "renderer/bsdf/bsdf.h"
 #include "renderer/bsdf/rough_dielectric.h"
+#include "renderer/interaction.h"
 #include "renderer/rng.h"
 
 using namespace renderer::bsdf;
@@ -307,4 +308,30 @@ TEST(RoughTransmission, GeneralisedReciprocity) {
                 << "eta " << eta << " theta_i " << ti;
         }
     }
+}
+
+TEST(NormalMap, TangentSpaceConvention) {
+    // A flat map (0.5, 0.5, 1) keeps the normal; +x in the map leans toward dp/du (made
+    // orthogonal to the normal).
+    scenes::Scene scene;
+    scenes::Texture tex;
+    tex.width = tex.height = 1;
+    tex.rgb = {0.5f, 0.5f, 1.0f};
+    scene.textures.push_back(tex);
+    tex.rgb = {0.75f, 0.5f, 0.75f};  // (0.5, 0, 0.5): 45 degrees toward the tangent
+    scene.textures.push_back(tex);
+    scenes::Material m;
+    m.normal_texture = 0;
+    renderer::Interaction it;
+    it.ng = it.ns = Vec3f(0, 0, 1);
+    it.dpdu = Vec3f(2, 0, 0.5f);
+    const Vec3f flat = mapped_normal(scene, m, it);
+    EXPECT_NEAR(flat.z, 1.0f, 1e-6f);
+    m.normal_texture = 1;
+    const Vec3f lean = mapped_normal(scene, m, it);
+    EXPECT_NEAR(lean.x, std::sqrt(0.5f), 1e-5f) << "leans toward dp/du";
+    EXPECT_NEAR(lean.y, 0.0f, 1e-5f);
+    EXPECT_NEAR(lean.z, std::sqrt(0.5f), 1e-5f);
+    it.dpdu = Vec3f(0.0f);
+    EXPECT_EQ(mapped_normal(scene, m, it), it.ns) << "no tangent: the map is not applied";
 }
