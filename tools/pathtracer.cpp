@@ -74,7 +74,7 @@ void apply_course_camera(renderer::CameraSetup& cam, const std::string& file, fl
 }  // namespace
 
 int main(int argc, char** argv) {
-    CLI::App app{"Physically based path tracer for diffuse and emissive scenes (CS184 dialect "
+    CLI::App app{"Physically based path tracer: diffuse, mirror, glass, microfacet and glTF PBR materials (CS184 dialect "
                  "COLLADA, glTF 2.0), on our own BVH or on Embree."};
     app.set_help_flag("-h,--help", "Print this help and exit");
 

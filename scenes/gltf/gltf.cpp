@@ -1114,7 +1114,7 @@ void Loader::run() {
     if (!ignored_material_features_.empty()) {
         std::string s;
         for (const std::string& f : ignored_material_features_) s += (s.empty() ? "" : ", ") + f;
-        note("glTF material features ignored (rendered as diffuse/emissive): " + s);
+        note("glTF material features ignored: " + s);
     }
     if (!m_.animations.empty()) note("animations ignored (" + std::to_string(m_.animations.size()) + ")");
 }

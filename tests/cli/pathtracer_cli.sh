@@ -99,6 +99,13 @@ if [ "$st" -ne 130 ] || ! grep -q "partial" "$TMP/int.out" || [ ! -s "$TMP/int.e
 else
   echo "ok   interrupt-writes-partial"; passes=$((passes+1))
 fi
+# Course 3-2 materials render as themselves: no "rendered as diffuse" note.
+check materials-scene 0 "Render time" -- "$PT" -r 16 12 -s 2 -f "$TMP/mat.exr" "$SRC/scenes/cornell_materials.dae"
+if grep -q "rendered as diffuse" "$TMP/err"; then
+  echo "FAIL materials-scene: a CGL material was rendered as diffuse"; fails=$((fails+1))
+else
+  echo "ok   materials-no-diffuse-note"; passes=$((passes+1))
+fi
 leftovers=$(ls -A "$TMP" | grep -c '\.tmp' || true)
 [ "$leftovers" -eq 0 ] || { echo "FAIL temporary files left behind: $(ls -A "$TMP")"; fails=$((fails+1)); }
 
