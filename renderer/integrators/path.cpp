@@ -33,6 +33,24 @@ Vec3f reflectance(const scenes::Scene& scene, const Interaction& it) {
 
 bool is_black(const Vec3f& v) { return !(v.x > 0 || v.y > 0 || v.z > 0); }
 
+/// The course's direct-light estimate: every light, -l samples each (one for delta
+/// lights), averaged per light. `contribution(i, n, sample)` weighs one sample.
+template <class F>
+Vec3f sum_light_samples(const LightSet& lights, int light_samples, const Interaction& it, Rng& rng,
+                        F&& contribution) {
+    Vec3f sum(0.0f);
+    for (size_t i = 0; i < lights.size(); ++i) {
+        const int n = lights.is_delta(i) ? 1 : light_samples;
+        Vec3f acc(0.0f);
+        for (int k = 0; k < n; ++k) {
+            LightSample ls;
+            if (lights.sample(i, it.p, it.ns, rng, ls)) acc += contribution(i, n, ls);
+        }
+        sum += acc / float(n);
+    }
+    return sum;
+}
+
 /// Veach's power heuristic (beta = 2; Veach 1997, 9.2.4): the weight of the strategy
 /// with density `a` against one with density `b` (each already times its sample count).
 float mis_weight(float a, float b) {
@@ -196,28 +214,19 @@ bool PathIntegrator::occluded(const Interaction& it, const LightSample& ls, Samp
 
 Vec3f PathIntegrator::direct_bsdf(const Interaction& it, const Vec3f& wo_l, const Vec3f& t, const Vec3f& bt,
                                   const bsdf::Bsdf& b, SampleContext& ctx) const {
-    Vec3f sum(0.0f);
-    for (size_t i = 0; i < lights_.size(); ++i) {
-        const int n = lights_.is_delta(i) ? 1 : s_.light_samples;
-        Vec3f acc(0.0f);
-        for (int k = 0; k < n; ++k) {
-            LightSample ls;
-            if (!lights_.sample(i, it.p, it.ns, ctx.rng, ls)) continue;
-            const Vec3f wi_l(accel::dot(ls.wi, t), accel::dot(ls.wi, bt), accel::dot(ls.wi, it.ns));
-            if ((accel::dot(it.ng, ls.wi) > 0) != (wi_l.z > 0)) continue;
-            const Vec3f f = b.f(wo_l, wi_l);
-            if (is_black(f)) continue;
-            // Lights a BSDF sample can also hit share the estimate by the power heuristic;
-            // n light samples count n times in the light strategy's density.
-            const float w = ls.delta || !lights_.hittable(i) || s_.strategy == IntegratorSettings::Strategy::Light
-                                ? 1.0f
-                                : mis_weight(float(n) * ls.pdf, b.pdf(wo_l, wi_l));
-            if (occluded(it, ls, ctx)) continue;
-            acc += ls.radiance * f * (std::abs(wi_l.z) * w / ls.pdf);
-        }
-        sum += acc / float(n);
-    }
-    return sum;
+    return sum_light_samples(lights_, s_.light_samples, it, ctx.rng, [&](size_t i, int n, const LightSample& ls) {
+        const Vec3f wi_l(accel::dot(ls.wi, t), accel::dot(ls.wi, bt), accel::dot(ls.wi, it.ns));
+        if ((accel::dot(it.ng, ls.wi) > 0) != (wi_l.z > 0)) return Vec3f(0.0f);
+        const Vec3f f = b.f(wo_l, wi_l);
+        if (is_black(f)) return Vec3f(0.0f);
+        // Lights a BSDF sample can also hit share the estimate by the power heuristic;
+        // n light samples count n times in the light strategy's density.
+        const float w = ls.delta || !lights_.hittable(i) || s_.strategy == IntegratorSettings::Strategy::Light
+                            ? 1.0f
+                            : mis_weight(float(n) * ls.pdf, b.pdf(wo_l, wi_l));
+        if (occluded(it, ls, ctx)) return Vec3f(0.0f);
+        return ls.radiance * f * (std::abs(wi_l.z) * w / ls.pdf);
+    });
 }
 
 Vec3f PathIntegrator::direct(const Interaction& it, const Vec3f& wo, const Vec3f& albedo,
@@ -228,21 +237,12 @@ Vec3f PathIntegrator::direct(const Interaction& it, const Vec3f& wo, const Vec3f
 
 Vec3f PathIntegrator::direct_lights(const Interaction& it, const Vec3f& albedo, SampleContext& ctx) const {
     const Vec3f f = albedo * accel::kInvPi;  // Lambert: R / pi
-    Vec3f sum(0.0f);
-    for (size_t i = 0; i < lights_.size(); ++i) {
-        const int n = lights_.is_delta(i) ? 1 : s_.light_samples;
-        Vec3f acc(0.0f);
-        for (int k = 0; k < n; ++k) {
-            LightSample ls;
-            if (!lights_.sample(i, it.p, it.ns, ctx.rng, ls)) continue;
-            const float cos_s = accel::dot(it.ns, ls.wi);
-            if (!(cos_s > 0) || accel::dot(it.ng, ls.wi) <= 0) continue;
-            if (occluded(it, ls, ctx)) continue;
-            acc += ls.radiance * f * (cos_s / ls.pdf);
-        }
-        sum += acc / float(n);
-    }
-    return sum;
+    return sum_light_samples(lights_, s_.light_samples, it, ctx.rng, [&](size_t, int, const LightSample& ls) {
+        const float cos_s = accel::dot(it.ns, ls.wi);
+        if (!(cos_s > 0) || accel::dot(it.ng, ls.wi) <= 0) return Vec3f(0.0f);
+        if (occluded(it, ls, ctx)) return Vec3f(0.0f);
+        return ls.radiance * f * (cos_s / ls.pdf);
+    });
 }
 
 Vec3f PathIntegrator::direct_hemisphere(const Interaction& it, const Vec3f& albedo, SampleContext& ctx) const {

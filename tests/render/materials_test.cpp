@@ -20,26 +20,8 @@ using namespace renderer;
 
 namespace {
 
-struct Estimate {
-    double mean = 0, se = 0;
-};
-
-/// Mean and standard error of the integrator's estimate along `r` over n samples.
-Estimate li(const World& w, const accel::Ray& r, int n, int channel = 1) {
-    double s1 = 0, s2 = 0;
-    accel::TraceStats st;
-    for (int i = 0; i < n; ++i) {
-        Rng rng(17, uint64_t(i));
-        SampleContext ctx{*w.accel, st, rng, {}};
-        const double v = w.integrator->li(r, ctx)[channel];
-        s1 += v;
-        s2 += v * v;
-    }
-    Estimate e;
-    e.mean = s1 / n;
-    e.se = std::sqrt(std::max(0.0, (s2 / n - e.mean * e.mean) / (n - 1)));
-    return e;
-}
+/// The integrator's estimate along `r` over n samples.
+Estimate li(const World& w, const accel::Ray& r, int n) { return estimate(*w.integrator, *w.accel, r, n, 17); }
 
 scenes::Texture constant_image(uint32_t w, uint32_t h, float v) {
     scenes::Texture t;

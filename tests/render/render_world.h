@@ -2,6 +2,8 @@
 // together.
 #pragma once
 
+#include <algorithm>
+#include <cmath>
 #include <memory>
 #include <string>
 #include <vector>
@@ -11,6 +13,29 @@
 #include "renderer/scene_geometry.h"
 
 namespace renderer {
+
+/// Mean and standard error of an estimator, from independent samples.
+struct Estimate {
+    double mean = 0, se = 0;
+};
+
+inline Estimate estimate(const Integrator& integ, const accel::Accelerator& acc, const accel::Ray& ray, int n,
+                  uint64_t seed, int channel = 1) {
+    double s1 = 0, s2 = 0;
+    accel::TraceStats st;
+    for (int i = 0; i < n; ++i) {
+        Rng rng(seed, uint64_t(i));
+        SampleContext ctx{acc, st, rng, {}};
+        const Vec3f L = integ.li(ray, ctx);
+        const double v = L[channel];
+        s1 += v;
+        s2 += v * v;
+    }
+    Estimate e;
+    e.mean = s1 / n;
+    e.se = std::sqrt(std::max(0.0, (s2 / n - e.mean * e.mean) / (n - 1)));
+    return e;
+}
 
 /// Everything a render needs, kept alive together.
 struct World {

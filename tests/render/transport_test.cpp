@@ -21,29 +21,6 @@ using namespace renderer;
 
 namespace {
 
-/// Mean and standard error of an estimator, from independent samples.
-struct Estimate {
-    double mean = 0, se = 0;
-};
-
-Estimate estimate(const Integrator& integ, const accel::Accelerator& acc, const accel::Ray& ray, int n,
-                  uint64_t seed, int channel = 1) {
-    double s1 = 0, s2 = 0;
-    accel::TraceStats st;
-    for (int i = 0; i < n; ++i) {
-        Rng rng(seed, uint64_t(i));
-        SampleContext ctx{acc, st, rng, {}};
-        const Vec3f L = integ.li(ray, ctx);
-        const double v = L[channel];
-        s1 += v;
-        s2 += v * v;
-    }
-    Estimate e;
-    e.mean = s1 / n;
-    e.se = std::sqrt(std::max(0.0, (s2 / n - e.mean * e.mean) / (n - 1)));
-    return e;
-}
-
 accel::Ray ray_to(const Vec3f& from, const Vec3f& to) {
     accel::Ray r;
     r.org = from;
