@@ -3,6 +3,8 @@
 PT=${PT:-"$(dirname "$0")/../build/tools/pathtracer"}
 S=${PT_SHARED_SCENES:-"$(dirname "$0")/../../shared/scenes"}/cs184
 OUT=${1:-"$(dirname "$0")/results/renders"}; mkdir -p "$OUT"; PT=$(realpath "$PT"); S=$(realpath "$S"); cd "$OUT"
+# RENDERS=materials runs only the issue-14 section below.
+if [ "${RENDERS:-all}" != materials ]; then
 for sc in CBspheres_lambertian CBbunny banana; do
   /usr/bin/time -f "$sc wall %e s" $PT -q -r 480 360 -s 64 -l 4 -m 5 -f $sc.png $S/$sc.dae > $sc.log 2>&1
 done
@@ -12,4 +14,25 @@ done
 for m in 0 1 2 3 100; do
   $PT -q -r 480 360 -s 64 -l 4 -m $m -f CBbunny_m$m.png $S/CBbunny.dae > CBbunny_m$m.log 2>&1
 done
+fi
+
+# Issue 14: materials, environment light and thin lens; a contact sheet of all of them
+# (materials_sheet.png, left to right, top to bottom: CBgems glass, the project's
+# Cornell box with mirror/glass/gold spheres, the same through a thin lens, DamagedHelmet
+# and BoomBox under a procedural sky, the materials box under the sky alone).
+G=$(dirname "$S")/gltf
+SRC=$(realpath "$(dirname "$PT")/../..")
+# A sky gradient with a small sun, made here (no downloads): 256x128 half EXR.
+oiiotool --pattern constant:color=4000,3600,3000 3x3 3 \
+  --pattern fill:top=0.25,0.4,0.9:bottom=0.8,0.75,0.7 256x128 3 --paste +80+30 -d half -o sky.exr
+CAM="--cam-pos 0 -3.9 0.85 --cam-target 0 0 0.75 --cam-up 0 0 1 --fov 42"
+r() { local name=$1; shift; /usr/bin/time -f "$name wall %e s" $PT -q "$@" -f $name.png > $name.log 2>&1; }
+r gems_glass -r 320 240 -s 128 -m 8 $S/CBgems.dae
+r cornell_materials -r 320 240 -s 128 -m 8 $CAM $SRC/scenes/cornell_materials.dae
+r cornell_dof -r 320 240 -s 128 -m 8 $CAM -b 0.15 -d 4.25 $SRC/scenes/cornell_materials.dae
+r helmet_sky -r 320 240 -s 64 -m 6 -e sky.exr $G/DamagedHelmet.glb
+r boombox_sky -r 320 240 -s 64 -m 6 -e sky.exr $G/BoomBox/BoomBox.gltf
+r suzanne_sky -r 320 240 -s 64 -m 6 -e sky.exr $G/Suzanne/Suzanne.gltf
+oiiotool gems_glass.png cornell_materials.png cornell_dof.png helmet_sky.png boombox_sky.png suzanne_sky.png \
+  --mosaic 3x2 -o materials_sheet.png
 echo "renders in $OUT"

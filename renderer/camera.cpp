@@ -3,6 +3,9 @@
 #include <fmt/format.h>
 
 #include <cmath>
+#include <fstream>
+#include <sstream>
+#include <stdexcept>
 
 namespace renderer {
 
@@ -37,6 +40,73 @@ accel::Ray Camera::generate_ray(float x, float y) const {
     ray.t_min = 0.0f;
     ray.t_max = accel::kInfinity;
     return ray;
+}
+
+accel::Ray Camera::generate_ray(float x, float y, float u1, float u2) const {
+    accel::Ray ray = generate_ray(x, y);
+    if (!(lens_radius_ > 0)) return ray;
+    // The in-focus point lies on the plane focal_distance in front of the camera.
+    const float t = focal_distance_ / accel::dot(ray.dir, fwd_);
+    const Vec3f focus = pos_ + ray.dir * t;
+    // Concentric-free polar mapping of the disc, as the course samples its lens.
+    const float r = lens_radius_ * std::sqrt(u1), phi = 2.0f * accel::kPi * u2;
+    ray.org = pos_ + right_ * (r * std::cos(phi)) + up_ * (r * std::sin(phi));
+    ray.dir = accel::normalize(focus - ray.org);
+    return ray;
+}
+
+CameraSettings read_camera_settings(const std::string& path) {
+    std::ifstream in(path);
+    if (!in) throw std::invalid_argument(path + ": cannot read the camera settings file");
+    std::stringstream text;
+    text << in.rdbuf();
+    static const char* const kFields[] = {
+        "hFov", "vFov", "ar", "nClip", "fClip", "position.x", "position.y", "position.z", "target.x", "target.y",
+        "target.z", "phi", "theta", "r", "minR", "maxR", "c2w[0][0]", "c2w[0][1]", "c2w[0][2]", "c2w[1][0]",
+        "c2w[1][1]", "c2w[1][2]", "c2w[2][0]", "c2w[2][1]", "c2w[2][2]", "screenW", "screenH", "screenDist",
+        "focalDistance", "lensRadius"};
+    constexpr size_t kBase = 28, kAll = 30;
+    float v[kAll] = {};
+    size_t got = 0;
+    std::string tok;
+    while (got < kAll && text >> tok) {
+        char* end = nullptr;
+        v[got] = std::strtof(tok.c_str(), &end);
+        if (end == tok.c_str() || *end != '\0' || !std::isfinite(v[got]))
+            throw std::invalid_argument(fmt::format("{}: field {} ({}): '{}' is not a finite number", path, got + 1,
+                                                    kFields[got], tok));
+        ++got;
+    }
+    if (got < kBase)
+        throw std::invalid_argument(fmt::format("{}: field {} ({}) is missing: the file has {} of the {} numbers",
+                                                path, got + 1, kFields[got], got, kBase));
+    if (got != kBase && got != kAll)
+        throw std::invalid_argument(fmt::format("{}: field {} ({}) is missing: 3-2 files end with focalDistance "
+                                                "lensRadius", path, got + 1, kFields[got]));
+    if (text >> tok) throw std::invalid_argument(fmt::format("{}: unexpected text after lensRadius: '{}'", path, tok));
+    auto check = [&](size_t i, bool ok, const char* why) {
+        if (!ok) throw std::invalid_argument(fmt::format("{}: field {} ({}) = {:g} {}", path, i + 1, kFields[i], v[i], why));
+    };
+    check(0, v[0] > 0 && v[0] < 180, "must be in (0, 180) degrees");
+    check(1, v[1] > 0 && v[1] < 180, "must be in (0, 180) degrees");
+    CameraSettings c;
+    c.hfov_deg = v[0];
+    c.vfov_deg = v[1];
+    c.aspect = v[2];
+    c.position = {v[5], v[6], v[7]};
+    c.target = {v[8], v[9], v[10]};
+    // The course's camera-to-world columns are (right, up, back).
+    c.up = {v[17], v[20], v[23]};
+    if (accel::length(c.target - c.position) == 0)
+        throw std::invalid_argument(fmt::format("{}: fields 6-11 (position, target): the target equals the position", path));
+    if (got == kAll) {
+        check(28, v[28] > 0, "must be positive");
+        check(29, v[29] >= 0, "must not be negative");
+        c.has_lens = true;
+        c.focal_distance = v[28];
+        c.lens_radius = v[29];
+    }
+    return c;
 }
 
 float Camera::hfov_deg() const { return 2.0f * deg(std::atan(tan_h_)); }

@@ -30,6 +30,16 @@ public:
     /// Ray through image point (x, y) in [0,1]^2, y = 0 at the TOP row. The direction is
     /// normalised so that t is a distance.
     accel::Ray generate_ray(float x, float y) const;
+    /// Thin lens (pbrt-v4 PerspectiveCamera; the CS184 3-2 camera): the pinhole ray's
+    /// point at `focal_distance` along the view axis stays in focus; the origin moves to
+    /// a point of the lens disc chosen by (u1, u2). A pinhole when the radius is 0.
+    accel::Ray generate_ray(float x, float y, float u1, float u2) const;
+    void set_lens(float radius, float focal_distance) {
+        lens_radius_ = radius;
+        focal_distance_ = focal_distance;
+    }
+    float lens_radius() const { return lens_radius_; }
+    float focal_distance() const { return focal_distance_; }
 
     Vec3f position() const { return pos_; }
     Vec3f forward() const { return fwd_; }
@@ -39,7 +49,21 @@ public:
 private:
     Vec3f pos_, right_, up_, fwd_;
     float tan_h_ = 1, tan_v_ = 1;
+    float lens_radius_ = 0, focal_distance_ = 1;
 };
+
+/// The course application's camera settings file (CS184 Camera::save_settings): hFov vFov
+/// ar nClip fClip; position (3); target (3); phi theta r minR maxR; camera-to-world (9,
+/// row by row); screenW screenH screenDist; and, in the 3-2 version, focalDistance
+/// lensRadius (absent: a pinhole).
+struct CameraSettings {
+    float hfov_deg = 0, vfov_deg = 0, aspect = 0;
+    Vec3f position, target, up;
+    bool has_lens = false;
+    float focal_distance = 0, lens_radius = 0;
+};
+/// Throws std::invalid_argument naming the file and the field that is missing or bad.
+CameraSettings read_camera_settings(const std::string& path);
 
 struct CameraSetup {
     Camera camera;

@@ -66,6 +66,16 @@ Interaction make_interaction(const scenes::Scene& scene, const SceneGeometry& ge
         if (!m.uvs.empty()) {
             const Vec2f a = m.uvs[idx[0]], b = m.uvs[idx[1]], c = m.uvs[idx[2]];
             it.uv = {a.x * w0 + b.x * hit.u + c.x * hit.v, a.y * w0 + b.y * hit.u + c.y * hit.v};
+            if (it.material < scene.materials.size() &&
+                scene.materials[it.material].normal_texture != scenes::kNoTexture) {
+                // pbrt-v4 Triangle::InteractionFromIntersection: solve the 2x2 system of
+                // edge vectors against uv differences.
+                const Vec3f e1 = m.positions[idx[1]] - m.positions[idx[0]];
+                const Vec3f e2 = m.positions[idx[2]] - m.positions[idx[0]];
+                const float du1 = b.x - a.x, dv1 = b.y - a.y, du2 = c.x - a.x, dv2 = c.y - a.y;
+                const float det = du1 * dv2 - dv1 * du2;
+                if (std::abs(det) > 1e-12f) it.dpdu = (e1 * dv2 - e2 * dv1) / det;
+            }
         }
     }
     return it;

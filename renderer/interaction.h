@@ -19,6 +19,9 @@ struct Interaction {
     Vec3f ng;       ///< unit geometric normal (triangle winding / sphere outward)
     Vec3f ns;       ///< unit shading normal: interpolated file normals, else ng
     Vec2f uv;       ///< texture coordinates if the mesh stores them
+    /// d p / d u of the triangle's texture mapping, only for materials with a normal map
+    /// (their tangent frame); zero otherwise.
+    Vec3f dpdu{0.0f};
     uint32_t material = 0;
     float t = 0;
     bool sphere = false;  ///< analytic sphere (emits on both sides)

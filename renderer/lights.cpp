@@ -110,13 +110,18 @@ LightSet::LightSet(const scenes::Scene& scene, LightModel model, std::vector<std
         if (l.num_tris == 0) continue;
         for (uint32_t i = 0; i < l.num_tris; ++i) cdf_[l.first_tri + i] /= total;
         l.area = total;
+        mesh_light_.resize(scene.meshes.size(), -1);
+        mesh_light_[mi] = int(lights_.size());
         lights_.push_back(l);
         mesh_is_light[mi] = true;
     }
-    for (const scenes::Sphere& s : scene.spheres) {
+    for (size_t si = 0; si < scene.spheres.size(); ++si) {
+        const scenes::Sphere& s = scene.spheres[si];
         if (s.material >= scene.materials.size() || !scene.materials[s.material].is_emissive()) continue;
         emissive_surfaces = true;
         if (course) continue;
+        sphere_light_.resize(scene.spheres.size(), -1);
+        sphere_light_[si] = int(lights_.size());
         Light l{};
         l.kind = Kind::Sphere;
         l.radiance = radiance_of(scene.materials[s.material]);
@@ -174,6 +179,18 @@ LightSet::LightSet(const scenes::Scene& scene, LightModel model, std::vector<std
                 l.normal = accel::normalize(sl.direction);  // direction light travels
                 break;
             case scenes::LightType::Environment:
+                if (sl.texture != scenes::kNoTexture && sl.texture < scene.textures.size()) {
+                    // One image environment; a constant one beside it is folded into neither.
+                    env_map_ = EnvironmentMap(scene.textures[sl.texture], scene.up, sl.radiance);
+                    if (env_ >= 0) {
+                        lights_[size_t(env_)].radiance = Vec3f(0.0f);
+                        notes.push_back("an environment image replaces the constant environment");
+                        continue;
+                    }
+                    l.kind = Kind::Environment;
+                    env_ = int(lights_.size());
+                    break;
+                }
                 if (env_ >= 0) {
                     lights_[size_t(env_)].radiance += sl.radiance;
                     continue;
@@ -300,6 +317,9 @@ bool LightSet::sample(size_t i, const Vec3f& p, const Vec3f& n, Rng& rng, LightS
             out.delta = true;
             return true;
         case Kind::Environment: {
+            out.distance = accel::kInfinity;
+            if (!env_map_.empty())
+                return env_map_.sample(rng.next_float(), rng.next_float(), out.wi, out.pdf, out.radiance);
             const Vec3f local = cosine_hemisphere(rng.next_float(), rng.next_float());
             out.wi = to_world(local, n);
             out.distance = accel::kInfinity;
@@ -309,6 +329,24 @@ bool LightSet::sample(size_t i, const Vec3f& p, const Vec3f& n, Rng& rng, LightS
         }
     }
     return false;
+}
+
+float LightSet::pdf(size_t i, const Vec3f& n, const Vec3f& wi, float dist, const Vec3f& nq) const {
+    const Light& l = lights_[i];
+    switch (l.kind) {
+        case Kind::Mesh:
+        case Kind::Sphere: {
+            // Area sampling: 1/area over the light, converted to solid angle.
+            const float cos_l = std::abs(accel::dot(nq, wi));
+            return cos_l > 0 ? dist * dist / (cos_l * l.area) : 0.0f;
+        }
+        case Kind::Environment: {
+            if (!env_map_.empty()) return env_map_.pdf(wi);
+            const float c = accel::dot(n, wi);
+            return c > 0 ? c * accel::kInvPi : 0.0f;
+        }
+        default: return 0.0f;
+    }
 }
 
 std::string LightSet::summary() const {

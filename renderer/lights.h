@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "accel/math.h"
+#include "renderer/envmap.h"
 #include "renderer/rng.h"
 #include "scenes/scene.h"
 
@@ -73,7 +74,11 @@ public:
         return k == Kind::Point || k == Kind::Spot || k == Kind::Directional;
     }
     bool has_environment() const { return env_ >= 0; }
-    Vec3f environment() const { return has_environment() ? lights_[size_t(env_)].radiance : Vec3f(0.0f); }
+    /// Radiance arriving from direction `dir` from infinitely far away.
+    Vec3f environment(const Vec3f& dir) const {
+        if (!has_environment()) return Vec3f(0.0f);
+        return env_map_.empty() ? lights_[size_t(env_)].radiance : env_map_.radiance(dir);
+    }
 
     /// Samples light `i` as seen from point `p` with unit normal `n` (the environment is
     /// sampled by a cosine lobe around n). Returns false when the sample carries nothing.
@@ -82,10 +87,29 @@ public:
     /// The emitter-visibility policy, consulted wherever an integrator adds emission
     /// found by a ray (camera rays, -H direct rays): the radiance the surface at `it`
     /// emits toward `wo`, zero when it does not emit that way. Consistent with sample():
-    /// a side that is sampled is a side that is seen. Emission found by bounce rays is
-    /// never added by the integrator in either model: in Mesh it was counted by light
-    /// sampling at the previous vertex, in Course it is black (the course's bounce).
+    /// a side that is sampled is a side that is seen. Emission found by diffuse bounce
+    /// rays is never added: in Mesh it was counted by light sampling at the previous
+    /// vertex, in Course it is black (the course's bounce). Non-diffuse BSDF bounces add
+    /// it with an MIS weight in Mesh, and in Course only through delta lobes (mirror,
+    /// glass), which light sampling cannot serve.
     Vec3f emitted(const Interaction& it, const Vec3f& wo) const;
+
+    /// For multiple importance sampling (renderer/integrators/path.cpp): the light that
+    /// mesh `mesh` / sphere `sphere` / the environment is, or -1 if it is not sampled.
+    int light_of_mesh(uint32_t mesh) const { return mesh < mesh_light_.size() ? mesh_light_[mesh] : -1; }
+    int light_of_sphere(uint32_t sphere) const {
+        return sphere < sphere_light_.size() ? sphere_light_[sphere] : -1;
+    }
+    int environment_index() const { return env_; }
+    /// Can a ray find light i (so a BSDF sample competes with its light samples)?
+    bool hittable(size_t i) const {
+        const Kind k = lights_[i].kind;
+        return k == Kind::Mesh || k == Kind::Sphere || k == Kind::Environment;
+    }
+    /// Solid-angle density with which sample(i, p, n) returns direction wi toward the
+    /// point of light i at distance `dist` whose geometric normal is `nq` (unused for the
+    /// environment).
+    float pdf(size_t i, const Vec3f& n, const Vec3f& wi, float dist, const Vec3f& nq) const;
 
     /// Summary line per kind, for stderr.
     std::string summary() const;
@@ -112,6 +136,8 @@ private:
     std::vector<float> cdf_;   // per mesh light: running area, normalised to 1 at its end
     int env_ = -1;
     LightModel model_ = LightModel::Mesh;
+    std::vector<int> mesh_light_, sphere_light_;  // scene mesh / sphere -> light, -1 if none
+    EnvironmentMap env_map_;  // an image environment (-e), importance-sampled
     const scenes::Scene* scene_ = nullptr;  // for emission textures
 };
 

@@ -144,8 +144,15 @@ RenderResult render(const Camera& camera, const Integrator& integrator,
                 jx = rng.next_float();
                 jy = rng.next_float();
             }
+            // Lens samples are drawn only for a thin lens, so pinhole images keep their
+            // random streams.
+            float lu = 0.5f, lv = 0.5f;
+            if (camera.lens_radius() > 0) {
+                lu = rng.next_float();
+                lv = rng.next_float();
+            }
             const accel::Ray ray = camera.generate_ray((float(x) + jx) / float(s.width),
-                                                       (float(y) + jy) / float(s.height));
+                                                       (float(y) + jy) / float(s.height), lu, lv);
             SampleContext ctx{accel, stats, rng, {}};
             const Vec3f L = integrator.li(ray, ctx);
             ++q.taken;

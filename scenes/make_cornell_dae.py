@@ -13,7 +13,9 @@ Conventions chosen here:
     normal agrees with the stored normal (unlike the course files, which wind outward);
     renderers then see the same side whichever normal they use.
 
-Run: python3 scenes/make_cornell_dae.py  (rewrites scenes/cornell.dae next to this file)
+Run: python3 scenes/make_cornell_dae.py  (rewrites scenes/cornell.dae and
+scenes/cornell_materials.dae next to this file). cornell_materials.dae is the same box
+with the CS184 3-2 BSDFs: a mirror sphere, a glass sphere and a gold microfacet sphere.
 """
 import os
 
@@ -83,15 +85,34 @@ def dot(a, b):
     return sum(x * y for x, y in zip(a, b))
 
 
+# CS184 3-2 BSDF elements (the CGL collada parser's names) for cornell_materials.dae.
+CGL_BSDFS = {
+    "mirror": "<mirror><reflectance>0.95 0.95 0.95</reflectance></mirror>",
+    "glass": "<glass><reflectance>1 1 1</reflectance><transmittance>1 1 1</transmittance>"
+             "<roughness>0</roughness><ior>1.5</ior></glass>",
+    # Gold (eta, k at ~ 614, 549, 466 nm), as the course's example gold.
+    "gold": "<microfacet><alpha>0.2</alpha><eta>0.21646 0.42833 1.3284</eta>"
+            "<k>3.2390 2.4599 1.8661</k></microfacet>",
+}
+MATERIAL_SPHERES = [
+    ("sphereMirror", (-0.45, 0.35, 0.38), 0.38, "mirror"),
+    ("sphereGlass", (0.45, -0.3, 0.3), 0.3, "glass"),
+    ("sphereGold", (0.05, 0.75, 0.2), 0.2, "gold"),
+]
+
+
 def effect(name, rgb, emission):
     extra = ""
+    bsdf = CGL_BSDFS.get(name)
     if emission:
+        bsdf = f"""<emission>
+            <radiance>{fmt(emission)}</radiance>
+          </emission>"""
+    if bsdf:
         extra = f"""
       <extra>
         <technique profile="CGL">
-          <emission>
-            <radiance>{fmt(emission)}</radiance>
-          </emission>
+          {bsdf}
         </technique>
       </extra>"""
     return f"""
@@ -181,7 +202,24 @@ def instance(node, geom_url, material):
       </node>"""
 
 
+def write(filename, spheres, materials_table):
+    global SPHERES, MATERIALS
+    SPHERES, MATERIALS = spheres, materials_table
+    doc = document()
+    out = os.path.join(os.path.dirname(os.path.abspath(__file__)), filename)
+    with open(out, "w") as f:
+        f.write(doc)
+
+
 def main():
+    write("cornell.dae", SPHERES, MATERIALS)
+    mats = dict(MATERIALS)
+    for _, _, _, m in MATERIAL_SPHERES:
+        mats[m] = ((0.8, 0.8, 0.8), None)
+    write("cornell_materials.dae", MATERIAL_SPHERES, mats)
+
+
+def document():
     effects = "".join(effect(n, rgb, em) for n, (rgb, em) in MATERIALS.items())
     materials = "".join(
         f"""
@@ -279,9 +317,7 @@ def main():
   </scene>
 </COLLADA>
 """
-    out = os.path.join(os.path.dirname(os.path.abspath(__file__)), "cornell.dae")
-    with open(out, "w") as f:
-        f.write(doc)
+    return doc
 
 
 if __name__ == "__main__":

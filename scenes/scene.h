@@ -28,17 +28,43 @@ struct Texture {
     std::vector<float> rgb;  ///< width*height*3 linear values, row 0 at the top
 };
 
-/// Lambertian diffuse or emissive; the only surfaces we model. An emissive material
-/// emits and does not reflect (albedo is ignored when emission is non-zero), unless
-/// `emitter_reflects` is set (a surface that does both, e.g. a white-furnace enclosure).
+/// Which BSDF a material uses (renderer/bsdf/). Plain data: the parameters below that
+/// the kind does not use are ignored.
+enum class BsdfKind : uint8_t {
+    Diffuse,     ///< Lambert with `albedo` (the default, and every pre-3-2 CS184 file)
+    Mirror,      ///< CGL mirror: perfect specular reflection tinted by `reflectance`
+    Glass,       ///< CGL glass/refraction: smooth dielectric, `reflectance`/`transmittance`, `ior`
+    Microfacet,  ///< CGL microfacet: Beckmann `alpha`, conductor Fresnel from per-channel eta, k
+    MetallicRoughness,  ///< glTF 2.0 core PBR (+ KHR_materials_transmission / _ior)
+};
+
+/// A surface's material. Emissive materials emit and do not reflect (the BSDF is ignored
+/// when emission is non-zero), unless `emitter_reflects` is set (a surface that does
+/// both, e.g. a white-furnace enclosure).
 struct Material {
     std::string name;
-    Vec3f albedo{0.8f, 0.8f, 0.8f};
+    BsdfKind bsdf = BsdfKind::Diffuse;
+    Vec3f albedo{0.8f, 0.8f, 0.8f};  ///< diffuse albedo; glTF base colour
     Vec3f emission{0.0f, 0.0f, 0.0f};
     uint32_t albedo_texture = kNoTexture;    ///< multiplies albedo
     uint32_t emission_texture = kNoTexture;  ///< multiplies emission
-    /// Non-empty when the file asked for another BSDF (mirror, glass, microfacet, ...)
-    /// that we render as diffuse with `albedo`: names what was replaced.
+    // Mirror / Glass (CS184 3-2 element names).
+    Vec3f reflectance{1.0f, 1.0f, 1.0f};
+    Vec3f transmittance{1.0f, 1.0f, 1.0f};
+    float ior = 1.5f;  ///< glass; glTF KHR_materials_ior
+    // Microfacet (course): per-channel complex index of refraction and Beckmann roughness.
+    Vec3f eta{0.2f, 0.9f, 1.1f};  ///< the course's default-ish gold-like values if absent
+    Vec3f k{3.9f, 2.4f, 2.2f};
+    float alpha = 0.5f;
+    // glTF metallic-roughness.
+    float metallic = 1.0f, roughness = 1.0f;
+    uint32_t metallic_roughness_texture = kNoTexture;  ///< linear; G = roughness, B = metallic
+    float transmission = 0.0f;                          ///< KHR_materials_transmission factor
+    uint32_t transmission_texture = kNoTexture;         ///< linear; R = transmission
+    uint32_t normal_texture = kNoTexture;               ///< tangent-space, linear [0,1] encoded
+    float normal_scale = 1.0f;
+    /// Non-empty when the file asked for a BSDF we do not model and render as diffuse
+    /// with `albedo`: names what was replaced.
     std::string replaced;
     bool emitter_reflects = false;
     /// Emits on both sides (CS184 files: the course's emission has no side test; glTF:
@@ -94,6 +120,9 @@ struct Light {
     Vec3f edge_u;      ///< area: full edge vector (centre +/- edge_u/2)
     Vec3f edge_v;      ///< area: full edge vector
     float spot_cos_inner = 1.0f, spot_cos_outer = 0.0f;
+    /// Environment: latitude-longitude radiance image in Scene::textures (times
+    /// `radiance`); kNoTexture = constant.
+    uint32_t texture = kNoTexture;
 };
 
 struct Camera {

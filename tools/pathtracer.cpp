@@ -16,6 +16,7 @@
 #include "accel/accelerator.h"
 #include "renderer/camera.h"
 #include "renderer/checkpoint.h"
+#include "renderer/envmap.h"
 #include "renderer/image.h"
 #include "renderer/integrator.h"
 #include "renderer/lights.h"
@@ -59,10 +60,42 @@ std::string fingerprint(const CLI::App& app, const std::string& scene_path, int 
     return out + fmt::format("scene-fnv1a={:016x};jitter={}", h, spp > 1);
 }
 
+/// -c (the course's camera settings file) replaces the camera; -b/-d (or the file's 3-2
+/// lens fields) make it a thin lens. -d defaults to the distance to the scene's centre.
+void apply_course_camera(renderer::CameraSetup& cam, const std::string& file, float lens_radius,
+                         float focal_distance, const scenes::Scene& scene, int width, int height) {
+    if (!file.empty()) {
+        renderer::CameraSettings c;
+        try {
+            c = renderer::read_camera_settings(file);
+        } catch (const std::invalid_argument& e) {
+            fail(e.what());
+        }
+        const float aspect = float(width) / float(height);
+        const float vfov = 2.0f * std::atan(std::tan(0.5f * c.hfov_deg * accel::kPi / 180.0f) / aspect) * 180.0f /
+                           accel::kPi;
+        cam.camera = renderer::Camera(c.position, c.target, c.up, c.hfov_deg, vfov);
+        cam.description = fmt::format("[PathTracer] Camera from settings file {}: hfov {:g}", file, c.hfov_deg);
+        if (c.has_lens) {
+            if (lens_radius < 0) lens_radius = c.lens_radius;
+            if (focal_distance < 0) focal_distance = c.focal_distance;
+        }
+    }
+    if (lens_radius > 0) {
+        if (focal_distance < 0) {
+            const accel::Bounds3f b = scene.bounds();
+            const accel::Vec3f centre = b.empty() ? accel::Vec3f(0.0f) : b.center();
+            focal_distance = std::max(1e-4f, accel::dot(centre - cam.camera.position(), cam.camera.forward()));
+        }
+        cam.camera.set_lens(lens_radius, focal_distance);
+        cam.description += fmt::format(", thin lens radius {:g}, focal distance {:g}", lens_radius, focal_distance);
+    }
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
-    CLI::App app{"Physically based path tracer for diffuse and emissive scenes (CS184 dialect "
+    CLI::App app{"Physically based path tracer: diffuse, mirror, glass, microfacet and glTF PBR materials (CS184 dialect "
                  "COLLADA, glTF 2.0), on our own BVH or on Embree."};
     app.set_help_flag("-h,--help", "Print this help and exit");
 
@@ -79,6 +112,9 @@ int main(int argc, char** argv) {
     float fov = 0;
     bool quiet = false, cost = false, strict = false;
     std::string ocio_config;
+    std::string env_map, camera_file;
+    float lens_radius = -1, focal_distance = -1;
+    std::string strategy = "mis";
 
     app.add_option("scene", scene_path, "Scene file (.dae, .gltf, .glb)")->required();
     app.add_option("-s", rs.spp, "Samples per pixel (the cap under -a)")->check(CLI::Range(1, 1 << 20));
@@ -93,6 +129,13 @@ int main(int argc, char** argv) {
     app.add_flag("-H", is.hemisphere, "Direct lighting by uniform hemisphere sampling instead of light sampling "
                                       "(under --lights=course it converges to a slightly different image than "
                                       "light sampling, as in the course)");
+    app.add_option("-e", env_map, "Environment map: latitude-longitude EXR/HDR, importance-sampled");
+    app.add_option("-b", lens_radius, "Thin lens radius (0 = pinhole)")->check(CLI::Range(0.0f, 1e30f));
+    app.add_option("-d", focal_distance, "Focal distance of the thin lens (default: to the scene centre)")
+        ->check(CLI::PositiveNumber);
+    app.add_option("--strategy", strategy, "Direct light at non-diffuse surfaces: mis | light | bsdf (bsdf is mis under --lights=course, where bounces do not see emitters)")
+        ->check(CLI::IsMember({"mis", "light", "bsdf"}));
+    app.add_option("-c", camera_file, "Camera settings file of the course application (overrides the scene's camera)");
     app.add_option("-f", output, "Output image (.png, .jpg, .exr; default: SCENE-NAME.png)");
     app.add_option("-r", resolution, "Image size W H (default 800 600)")->expected(2);
     app.add_option("-p", cell, "Render only the cell X Y DX DY (pixels, from the top left)")->expected(4);
@@ -184,6 +227,9 @@ int main(int argc, char** argv) {
         rs.adaptive_tol = adaptive[1];
     }
     is.accumulate = accumulate == 1;
+    is.strategy = strategy == "light"  ? renderer::IntegratorSettings::Strategy::Light
+                  : strategy == "bsdf" ? renderer::IntegratorSettings::Strategy::Bsdf
+                                       : renderer::IntegratorSettings::Strategy::Mis;
     is.offset = offset == "epsilon" ? renderer::OffsetMode::Epsilon : renderer::OffsetMode::ErrorBound;
     ao.split = bvh == "midpoint" ? accel::BvhSplit::Midpoint : accel::BvhSplit::Sah;
     ao.triangle = tri == "watertight" ? accel::TriangleTest::Watertight : accel::TriangleTest::Fast;
@@ -219,6 +265,21 @@ int main(int argc, char** argv) {
     if (scene.num_triangles() == 0 && scene.spheres.empty())
         fail(fmt::format("{}: the scene has no geometry to render", scene_path));
 
+    if (!env_map.empty()) {
+        try {
+            scene.textures.push_back(renderer::load_environment_image(env_map));
+        } catch (const scenes::SceneError& e) {
+            fail(e.what());
+        }
+        scenes::Light env;
+        env.type = scenes::LightType::Environment;
+        env.name = env_map;
+        env.texture = uint32_t(scene.textures.size() - 1);
+        scene.lights.push_back(env);
+        std::fprintf(stderr, "[PathTracer] Environment map %s (%ux%u), importance-sampled\n", env_map.c_str(),
+                     scene.textures.back().width, scene.textures.back().height);
+    }
+
     // Camera.
     renderer::CameraOverrides ov;
     if (!cam_pos.empty()) ov.position = accel::Vec3f(cam_pos[0], cam_pos[1], cam_pos[2]);
@@ -228,7 +289,8 @@ int main(int argc, char** argv) {
     const renderer::CameraMode mode = camera_mode == "course" ? renderer::CameraMode::Course
                                       : camera_mode == "file" ? renderer::CameraMode::File
                                                               : renderer::CameraMode::Auto;
-    const renderer::CameraSetup cam = renderer::make_camera(scene, mode, rs.width, rs.height, ov);
+    renderer::CameraSetup cam = renderer::make_camera(scene, mode, rs.width, rs.height, ov);
+    apply_course_camera(cam, camera_file, lens_radius, focal_distance, scene, rs.width, rs.height);
     std::fprintf(stderr, "%s\n", cam.description.c_str());
 
     // Accelerator and integrator.

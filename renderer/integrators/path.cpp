@@ -2,6 +2,7 @@
 
 #include <cmath>
 
+#include "renderer/bsdf/bsdf.h"
 #include "renderer/interaction.h"
 #include "renderer/sampling.h"
 #include "renderer/spawn.h"
@@ -20,6 +21,31 @@ Vec3f reflectance(const scenes::Scene& scene, const Interaction& it) {
 }
 
 bool is_black(const Vec3f& v) { return !(v.x > 0 || v.y > 0 || v.z > 0); }
+
+/// The course's direct-light estimate: every light, -l samples each (one for delta
+/// lights), averaged per light. `contribution(i, n, sample)` weighs one sample.
+template <class F>
+Vec3f sum_light_samples(const LightSet& lights, int light_samples, const Interaction& it, Rng& rng,
+                        F&& contribution) {
+    Vec3f sum(0.0f);
+    for (size_t i = 0; i < lights.size(); ++i) {
+        const int n = lights.is_delta(i) ? 1 : light_samples;
+        Vec3f acc(0.0f);
+        for (int k = 0; k < n; ++k) {
+            LightSample ls;
+            if (lights.sample(i, it.p, it.ns, rng, ls)) acc += contribution(i, n, ls);
+        }
+        sum += acc / float(n);
+    }
+    return sum;
+}
+
+/// Veach's power heuristic (beta = 2; Veach 1997, 9.2.4): the weight of the strategy
+/// with density `a` against one with density `b` (each already times its sample count).
+float mis_weight(float a, float b) {
+    const float a2 = a * a, b2 = b * b;
+    return a2 + b2 > 0 ? a2 / (a2 + b2) : 0.0f;
+}
 
 }  // namespace
 
@@ -41,17 +67,29 @@ bool PathIntegrator::counts(int bounce) const {
 Vec3f PathIntegrator::li(const accel::Ray& camera_ray, SampleContext& ctx) const {
     accel::Hit hit;
     if (!ctx.accel.intersect(camera_ray, hit, ctx.stats))
-        return counts(0) ? lights_.environment() : Vec3f(0.0f);
+        return counts(0) ? lights_.environment(accel::normalize(camera_ray.dir)) : Vec3f(0.0f);
     Interaction it = make_interaction(scene_, geometry_, camera_ray, hit);
     ctx.aov.normal = it.ns;
     ctx.aov.depth = it.t;
     ctx.aov.albedo = reflectance(scene_, it);
+    if (it.material < scene_.materials.size() && scene_.materials[it.material].bsdf != scenes::BsdfKind::Diffuse)
+        ctx.aov.albedo = bsdf::aov_albedo(scene_, scene_.materials[it.material], it);
 
     Vec3f L(0.0f);
     Vec3f wo = -accel::normalize(camera_ray.dir);
     if (counts(0)) L += lights_.emitted(it, wo);
     Vec3f beta(1.0f);
     for (int bounce = 1; bounce <= s_.max_depth; ++bounce) {
+        // Non-diffuse materials take the general BSDF path; diffuse ones keep the
+        // Lambert-only loop below, so a diffuse scene costs what it did before.
+        if (it.material < scene_.materials.size()) {
+            const scenes::Material& m = scene_.materials[it.material];
+            if (m.bsdf != scenes::BsdfKind::Diffuse) {
+                if (m.is_emissive() && !m.emitter_reflects) break;
+                if (!scatter(m, bounce, it, wo, beta, L, ctx)) break;
+                continue;
+            }
+        }
         const Vec3f albedo = reflectance(scene_, it);
         if (is_black(albedo)) break;
         // Shade the side the ray arrived on (two-sided diffuse surfaces).
@@ -83,6 +121,111 @@ Vec3f PathIntegrator::li(const accel::Ray& camera_ray, SampleContext& ctx) const
     return L;
 }
 
+bool PathIntegrator::scatter(const scenes::Material& m, int bounce, Interaction& it, Vec3f& wo, Vec3f& beta,
+                             Vec3f& L, SampleContext& ctx) const {
+    // The local frame faces wo; `front` remembers which side of the surface that is, for
+    // a dielectric's relative index.
+    const bool front = accel::dot(it.ng, wo) > 0;
+    it.ns = bsdf::mapped_normal(scene_, m, it);
+    if (!front) it.ng = -it.ng;
+    if (accel::dot(it.ns, it.ng) < 0) it.ns = -it.ns;
+    const bsdf::Bsdf b = bsdf::make_bsdf(scene_, m, it, front);
+    Vec3f t, bt;
+    onb(it.ns, t, bt);
+    const Vec3f wo_l(accel::dot(wo, t), accel::dot(wo, bt), accel::dot(wo, it.ns));
+    if (!(wo_l.z > 0)) return false;
+    const bool delta = b.is_delta();
+    using Strategy = IntegratorSettings::Strategy;
+    // Under --lights=course a bounce never sees emission, so BSDF-only sampling would
+    // lose the panel's light: there --strategy=bsdf falls back to MIS.
+    const bool course = lights_.model() == LightModel::Course;
+    const Strategy strategy = course && s_.strategy == Strategy::Bsdf ? Strategy::Mis : s_.strategy;
+    if (!delta && counts(bounce) && strategy != Strategy::Bsdf) L += beta * direct_bsdf(it, wo_l, t, bt, b, ctx);
+    // At the last vertex the BSDF sample still runs when its emission counts: it is the
+    // other half of the MIS estimate of direct light (and all of it through delta lobes).
+    const bool last = bounce == s_.max_depth;
+    if (last && !counts(bounce)) return false;
+    if (!last && bounce >= 2 && s_.rr_continue < 1.0f) {
+        if (ctx.rng.next_float() >= s_.rr_continue) return false;
+        beta = beta / s_.rr_continue;
+    }
+    bsdf::Sample bs;
+    const float u1 = ctx.rng.next_float(), u2 = ctx.rng.next_float(), uc = ctx.rng.next_float();
+    if (!b.sample(wo_l, u1, u2, uc, bs)) return false;
+    // Weight of an emitter found by the BSDF sample, given the light strategy's density.
+    const auto bsdf_weight = [&](float light_pdf) {
+        if (delta || strategy == Strategy::Bsdf) return 1.0f;
+        if (strategy == Strategy::Light) return light_pdf > 0 ? 0.0f : 1.0f;
+        return mis_weight(bs.pdf, light_pdf);
+    };
+    const Vec3f wi = t * bs.wi.x + bt * bs.wi.y + it.ns * bs.wi.z;
+    // A direction on the other side of the geometric surface than its lobe says (shading
+    // normals) would leak light through the surface.
+    if ((accel::dot(wi, it.ng) > 0) != (bs.wi.z > 0)) return false;
+    beta *= bs.weight;
+    if (is_black(beta)) return false;
+    const accel::Ray ray = spawn_ray(it.p, it.p_error, it.ng, wi, scale_, s_.offset);
+    accel::Hit hit;
+    const Vec3f n_here = it.ns;
+    if (!ctx.accel.intersect(ray, hit, ctx.stats)) {
+        // Through a delta lobe light sampling cannot find the environment: all of it is
+        // counted here. Otherwise both strategies found it: MIS weight.
+        if (counts(bounce)) {
+            const int e = lights_.environment_index();
+            const float w = e < 0 ? 1.0f
+                                  : bsdf_weight(float(s_.light_samples) *
+                                                lights_.pdf(size_t(e), n_here, wi, 0.0f, Vec3f(0.0f)));
+            L += beta * lights_.environment(wi) * w;
+        }
+        return false;
+    }
+    it = make_interaction(scene_, geometry_, ray, hit);
+    wo = -wi;
+    // Emission reached through a delta lobe is not reachable by light sampling: count it
+    // here, at the path length of the previous vertex's direct light. Through a non-delta
+    // lobe it is weighted against light sampling of the same emitter (Veach 1997, 9.2),
+    // except under --lights=course, where a bounce is black to emission as in the course
+    // (its lights are the sampled library_lights; the panel is no light there). Through a
+    // mirror or glass the course's own 3-2 renderer shows the emitter, and so do we.
+    if (counts(bounce) && (delta || !course)) {
+        const Vec3f Le = lights_.emitted(it, wo);
+        if (!is_black(Le)) {
+            const GeomSource& src = geometry_.source(hit.geom_id);
+            const int li = src.kind == GeomSource::Mesh ? lights_.light_of_mesh(src.mesh)
+                                                        : lights_.light_of_sphere(hit.prim_id);
+            const float w =
+                bsdf_weight(li < 0 ? 0.0f : float(s_.light_samples) * lights_.pdf(size_t(li), n_here, wi, it.t, it.ng));
+            L += beta * Le * w;
+        }
+    }
+    return !last;
+}
+
+bool PathIntegrator::occluded(const Interaction& it, const LightSample& ls, SampleContext& ctx) const {
+    const accel::Ray shadow = std::isfinite(ls.distance)
+                                  ? spawn_segment(it.p, it.p_error, it.ng, ls.target, ls.target_error, scale_,
+                                                  s_.offset, ls.normal)
+                                  : spawn_ray(it.p, it.p_error, it.ng, ls.wi, scale_, s_.offset);
+    return ctx.accel.occluded(shadow, ctx.stats);
+}
+
+Vec3f PathIntegrator::direct_bsdf(const Interaction& it, const Vec3f& wo_l, const Vec3f& t, const Vec3f& bt,
+                                  const bsdf::Bsdf& b, SampleContext& ctx) const {
+    return sum_light_samples(lights_, s_.light_samples, it, ctx.rng, [&](size_t i, int n, const LightSample& ls) {
+        const Vec3f wi_l(accel::dot(ls.wi, t), accel::dot(ls.wi, bt), accel::dot(ls.wi, it.ns));
+        if ((accel::dot(it.ng, ls.wi) > 0) != (wi_l.z > 0)) return Vec3f(0.0f);
+        const Vec3f f = b.f(wo_l, wi_l);
+        if (is_black(f)) return Vec3f(0.0f);
+        // Lights a BSDF sample can also hit share the estimate by the power heuristic;
+        // n light samples count n times in the light strategy's density.
+        const float w = ls.delta || !lights_.hittable(i) || s_.strategy == IntegratorSettings::Strategy::Light
+                            ? 1.0f
+                            : mis_weight(float(n) * ls.pdf, b.pdf(wo_l, wi_l));
+        if (occluded(it, ls, ctx)) return Vec3f(0.0f);
+        return ls.radiance * f * (std::abs(wi_l.z) * w / ls.pdf);
+    });
+}
+
 Vec3f PathIntegrator::direct(const Interaction& it, const Vec3f& wo, const Vec3f& albedo,
                              SampleContext& ctx) const {
     (void)wo;
@@ -91,25 +234,12 @@ Vec3f PathIntegrator::direct(const Interaction& it, const Vec3f& wo, const Vec3f
 
 Vec3f PathIntegrator::direct_lights(const Interaction& it, const Vec3f& albedo, SampleContext& ctx) const {
     const Vec3f f = albedo * accel::kInvPi;  // Lambert: R / pi
-    Vec3f sum(0.0f);
-    for (size_t i = 0; i < lights_.size(); ++i) {
-        const int n = lights_.is_delta(i) ? 1 : s_.light_samples;
-        Vec3f acc(0.0f);
-        for (int k = 0; k < n; ++k) {
-            LightSample ls;
-            if (!lights_.sample(i, it.p, it.ns, ctx.rng, ls)) continue;
-            const float cos_s = accel::dot(it.ns, ls.wi);
-            if (!(cos_s > 0) || accel::dot(it.ng, ls.wi) <= 0) continue;
-            const accel::Ray shadow = std::isfinite(ls.distance)
-                                          ? spawn_segment(it.p, it.p_error, it.ng, ls.target, ls.target_error,
-                                                          scale_, s_.offset, ls.normal)
-                                          : spawn_ray(it.p, it.p_error, it.ng, ls.wi, scale_, s_.offset);
-            if (ctx.accel.occluded(shadow, ctx.stats)) continue;
-            acc += ls.radiance * f * (cos_s / ls.pdf);
-        }
-        sum += acc / float(n);
-    }
-    return sum;
+    return sum_light_samples(lights_, s_.light_samples, it, ctx.rng, [&](size_t, int, const LightSample& ls) {
+        const float cos_s = accel::dot(it.ns, ls.wi);
+        if (!(cos_s > 0) || accel::dot(it.ng, ls.wi) <= 0) return Vec3f(0.0f);
+        if (occluded(it, ls, ctx)) return Vec3f(0.0f);
+        return ls.radiance * f * (cos_s / ls.pdf);
+    });
 }
 
 Vec3f PathIntegrator::direct_hemisphere(const Interaction& it, const Vec3f& albedo, SampleContext& ctx) const {
@@ -126,7 +256,7 @@ Vec3f PathIntegrator::direct_hemisphere(const Interaction& it, const Vec3f& albe
         if (ctx.accel.intersect(ray, hit, ctx.stats))
             Le = lights_.emitted(make_interaction(scene_, geometry_, ray, hit), -wi);
         else
-            Le = lights_.environment();
+            Le = lights_.environment(wi);
         sum += Le * f * (local.z / kUniformHemispherePdf);
     }
     return sum / float(n);

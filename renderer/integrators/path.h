@@ -9,6 +9,9 @@
 namespace renderer {
 
 struct Interaction;
+namespace bsdf {
+class Bsdf;
+}
 
 class PathIntegrator final : public Integrator {
 public:
@@ -21,6 +24,14 @@ private:
     Vec3f direct(const Interaction& it, const Vec3f& wo, const Vec3f& albedo, SampleContext& ctx) const;
     Vec3f direct_lights(const Interaction& it, const Vec3f& albedo, SampleContext& ctx) const;
     Vec3f direct_hemisphere(const Interaction& it, const Vec3f& albedo, SampleContext& ctx) const;
+    /// One vertex on a non-diffuse material: direct light through its BSDF (skipped for
+    /// delta lobes), then a BSDF-sampled bounce. Updates it, wo, beta; false ends the path.
+    bool scatter(const scenes::Material& m, int bounce, Interaction& it, Vec3f& wo, Vec3f& beta, Vec3f& L,
+                 SampleContext& ctx) const;
+    Vec3f direct_bsdf(const Interaction& it, const Vec3f& wo_l, const Vec3f& t, const Vec3f& bt,
+                      const bsdf::Bsdf& b, SampleContext& ctx) const;
+    /// Is the light sample's shadow ray (segment, or ray for infinitely far lights) blocked?
+    bool occluded(const Interaction& it, const LightSample& ls, SampleContext& ctx) const;
     /// Does the light of path length `bounce` (0 = emission seen directly) count?
     bool counts(int bounce) const;
 

@@ -349,6 +349,7 @@ private:
 
     // ---- materials --------------------------------------------------------------
     uint32_t material_index(pugi::xml_node mat);
+    bool read_cgl_bsdf(pugi::xml_node bsdf, Material& m) const;
     uint32_t default_material() {
         if (default_material_ == kNone) {
             Material m;
@@ -631,13 +632,13 @@ uint32_t Loader::material_index(pugi::xml_node mat) {
             } else if (kind == "diffuse") {
                 if (pugi::xml_node c = first_of(bsdf, {"reflectance", "albedo", "color"}))
                     m.albedo = read_color(c);
-            } else {
+            } else if (!read_cgl_bsdf(bsdf, m)) {
                 if (!have_diffuse)
                     if (pugi::xml_node c =
                             first_of(bsdf, {"reflectance", "albedo", "color", "transmittance"}))
                         m.albedo = read_color(c);
                 m.replaced = std::string(clip(kind));
-                note(fmt::format("material '{}': CGL {} BSDF rendered as diffuse, albedo ({:g}, {:g}, {:g})",
+                note(fmt::format("material '{}': unknown CGL {} BSDF rendered as diffuse, albedo ({:g}, {:g}, {:g})",
                                  m.name, m.replaced, m.albedo.x, m.albedo.y, m.albedo.z));
             }
         }
@@ -646,6 +647,49 @@ uint32_t Loader::material_index(pugi::xml_node mat) {
     scene_.materials.push_back(std::move(m));
     materials_.emplace(mat.internal_object(), idx);
     return idx;
+}
+
+/// The CS184 3-2 BSDF elements (CGL collada parser): <mirror><reflectance>,
+/// <glass>/<refraction> with <reflectance> <transmittance> <roughness> <ior>, and
+/// <microfacet> with <alpha> and per-channel <eta> <k>. Absent children keep the
+/// defaults in scenes/scene.h. False for an element name we do not model.
+bool Loader::read_cgl_bsdf(pugi::xml_node bsdf, Material& m) const {
+    const std::string_view kind = bsdf.name();
+    // A spectrum is "r g b" (alpha ignored) or one number for all three channels.
+    auto color = [&](const char* name, Vec3f& out) {
+        pugi::xml_node c = bsdf.child(name);
+        if (!c) return;
+        float v[4] = {0, 0, 0, 0};
+        const size_t got = read_floats_upto(c, v, 4);
+        if (got == 1) v[1] = v[2] = v[0];
+        else if (got != 3 && got != 4) fail(c, fmt::format("needs 1 or 3 numbers, has {}", got));
+        if (v[0] < 0 || v[1] < 0 || v[2] < 0) fail(c, "must not be negative");
+        out = Vec3f(v[0], v[1], v[2]);
+    };
+    auto positive = [&](const char* name, float& out) {
+        if (pugi::xml_node c = bsdf.child(name)) {
+            out = read_float(c);
+            if (!(out > 0.0f)) fail(c, "must be positive");
+        }
+    };
+    if (kind == "mirror") {
+        m.bsdf = BsdfKind::Mirror;
+        color("reflectance", m.reflectance);
+    } else if (kind == "glass" || kind == "refraction") {
+        m.bsdf = BsdfKind::Glass;
+        if (kind == "glass") color("reflectance", m.reflectance);
+        else m.reflectance = Vec3f(0.0f);  // the course's refraction BSDF only transmits
+        color("transmittance", m.transmittance);
+        positive("ior", m.ior);
+    } else if (kind == "microfacet") {
+        m.bsdf = BsdfKind::Microfacet;
+        positive("alpha", m.alpha);
+        color("eta", m.eta);
+        color("k", m.k);
+    } else {
+        return false;
+    }
+    return true;
 }
 
 Mat4f Loader::local_transform(pugi::xml_node node, bool camera_only) {

@@ -386,7 +386,8 @@ private:
     UvTransform texture_transform(const tinygltf::TextureInfo& ti, const std::string& desc,
                                   int& texcoord) const;
     int texture_image(int ti, const std::string& user) const;
-    uint32_t decoded_texture(int ii, const std::string& user);
+    uint32_t decoded_texture(int ii, const std::string& user, bool srgb = true);
+    void read_pbr(const tinygltf::Material& g, const std::string& mdesc, Material& out, int& uv_set);
 
     std::string name_;
     const tinygltf::Model& m_;
@@ -397,6 +398,7 @@ private:
     std::vector<int> material_uv_set_;   // per scene material, -1 = no texture used
     std::vector<UvTransform> material_uv_xform_;  // per scene material
     std::map<int, uint32_t> textures_;   // glTF image -> scene texture
+    std::map<int, uint32_t> linear_textures_;  // glTF image -> scene texture, not sRGB-decoded
     std::set<std::string> ignored_material_features_;
     uint64_t elements_ = 0;
     uint64_t decoded_elements_ = 0;
@@ -761,9 +763,10 @@ int Loader::texture_image(int ti, const std::string& user) const {
     return t.source;
 }
 
-uint32_t Loader::decoded_texture(int ii, const std::string& user) {
-    auto found = textures_.find(ii);
-    if (found != textures_.end()) return found->second;
+uint32_t Loader::decoded_texture(int ii, const std::string& user, bool srgb) {
+    auto& cache = srgb ? textures_ : linear_textures_;
+    auto found = cache.find(ii);
+    if (found != cache.end()) return found->second;
     const tinygltf::Image& im = m_.images[size_t(ii)];
     const unsigned char* bytes = nullptr;
     size_t size = 0;
@@ -786,11 +789,11 @@ uint32_t Loader::decoded_texture(int ii, const std::string& user) {
     }
     Texture tex;
     std::string why;
-    if (!decode_srgb_texture(bytes, size, tex, why)) fail(user + ": " + image_desc(ii) + ": " + why);
+    if (!decode_srgb_texture(bytes, size, tex, why, srgb)) fail(user + ": " + image_desc(ii) + ": " + why);
     tex.name = !im.name.empty() ? im.name : (!im.uri.empty() && !tinygltf::IsDataURI(im.uri) ? im.uri : "image " + std::to_string(ii));
     uint32_t idx = uint32_t(scene_.textures.size());
     scene_.textures.push_back(std::move(tex));
-    textures_[ii] = idx;
+    cache[ii] = idx;
     return idx;
 }
 
@@ -864,35 +867,98 @@ uint32_t Loader::material_index(int mi, const std::string& user) {
         if (out.albedo_texture != kNoTexture && out.is_emissive())
             note(mdesc + ": emissive and textured: it both emits and reflects its base colour");
         // Unneeded textures are never decoded, but a dangling reference is still an error.
-        if (pbr.metallicRoughnessTexture.index >= 0)
-            texture_image(pbr.metallicRoughnessTexture.index, mdesc + " metallicRoughnessTexture");
-        if (g.normalTexture.index >= 0) {
-            texture_image(g.normalTexture.index, mdesc + " normalTexture");
-            ignored_material_features_.insert("normalTexture");
-        }
         if (g.occlusionTexture.index >= 0) {
             texture_image(g.occlusionTexture.index, mdesc + " occlusionTexture");
             ignored_material_features_.insert("occlusionTexture");
         }
-        if (!std::isfinite(pbr.metallicFactor)) fail(mdesc + ": metallicFactor is not finite");
-        if (pbr.metallicFactor > 0.0 || pbr.metallicRoughnessTexture.index >= 0) {
-            std::ostringstream r;
-            r << "metallic-roughness (metallic=" << pbr.metallicFactor << ", roughness="
-              << pbr.roughnessFactor << (pbr.metallicRoughnessTexture.index >= 0 ? ", textured" : "") << ")";
-            out.replaced = r.str();
-            ignored_material_features_.insert("metallic-roughness");
-        }
+        read_pbr(g, mdesc, out, uv_set);
         if (g.alphaMode != "OPAQUE" && !g.alphaMode.empty())
             ignored_material_features_.insert("alphaMode " + g.alphaMode);
         for (const auto& [ext, v] : g.extensions)
-            if (ext != "KHR_materials_emissive_strength") ignored_material_features_.insert(ext);
+            if (ext != "KHR_materials_emissive_strength" && ext != "KHR_materials_transmission" &&
+                ext != "KHR_materials_ior")
+                ignored_material_features_.insert(ext);
     }
     uint32_t idx = uint32_t(scene_.materials.size());
     scene_.materials.push_back(out);
-    material_uv_set_.push_back(out.albedo_texture != kNoTexture || out.emission_texture != kNoTexture ? uv_set : -1);
+    const bool textured = out.albedo_texture != kNoTexture || out.emission_texture != kNoTexture ||
+                          out.metallic_roughness_texture != kNoTexture || out.normal_texture != kNoTexture ||
+                          out.transmission_texture != kNoTexture;
+    material_uv_set_.push_back(textured ? uv_set : -1);
     material_uv_xform_.push_back(uv_xform);
     materials_[mi] = idx;
     return idx;
+}
+
+/// glTF 2.0 metallic-roughness (pbrMetallicRoughness factors and textures, normalTexture)
+/// with KHR_materials_transmission and KHR_materials_ior. A material whose metallic and
+/// transmission are zero, untextured, stays Diffuse (Lambert), so a plain diffuse file
+/// keeps the diffuse integrator's speed; anything else is BsdfKind::MetallicRoughness.
+void Loader::read_pbr(const tinygltf::Material& g, const std::string& mdesc, Material& out, int& uv_set) {
+    const auto& pbr = g.pbrMetallicRoughness;
+    auto factor = [&](double v, const char* what) {
+        if (!std::isfinite(v) || v < 0 || v > 1) fail(mdesc + ": " + what + " must be in [0, 1]");
+        return float(v);
+    };
+    out.metallic = factor(pbr.metallicFactor, "metallicFactor");
+    out.roughness = factor(pbr.roughnessFactor, "roughnessFactor");
+    auto data_texture = [&](const tinygltf::TextureInfo& ti, const char* slot) {
+        if (ti.texCoord < 0) fail(mdesc + ": negative texCoord");
+        const int img = texture_image(ti.index, mdesc + " " + slot);
+        if (uv_set < 0) uv_set = ti.texCoord;
+        else if (uv_set != ti.texCoord)
+            note(mdesc + ": " + slot + " uses TEXCOORD_" + std::to_string(ti.texCoord) + " but another texture TEXCOORD_" +
+                 std::to_string(uv_set) + "; both sampled with the latter");
+        // A missing data map degrades to the factors (BoomBox in the shared corpus lacks its
+        // occlusion-roughness-metallic image); a missing base colour stays an error.
+        const tinygltf::Image& im = m_.images[size_t(img)];
+        if (im.bufferView < 0 && im.image.empty() && !im.uri.empty() && !tinygltf::IsDataURI(im.uri)) {
+            if (!linear_textures_.count(img))
+                note(mdesc + ": " + slot + " " + image_desc(img) + " not found; using the factors alone");
+            linear_textures_[img] = kNoTexture;
+            return kNoTexture;
+        }
+        return decoded_texture(img, mdesc + " " + slot, false);
+    };
+    if (pbr.metallicRoughnessTexture.index >= 0)
+        out.metallic_roughness_texture = data_texture(pbr.metallicRoughnessTexture, "metallicRoughnessTexture");
+    if (g.normalTexture.index >= 0) {
+        if (g.normalTexture.texCoord < 0) fail(mdesc + ": negative texCoord");
+        tinygltf::TextureInfo ti;
+        ti.index = g.normalTexture.index;
+        ti.texCoord = g.normalTexture.texCoord;
+        out.normal_texture = data_texture(ti, "normalTexture");
+        if (!std::isfinite(g.normalTexture.scale)) fail(mdesc + ": normalTexture.scale is not finite");
+        out.normal_scale = float(g.normalTexture.scale);
+    }
+    auto ext = g.extensions.find("KHR_materials_transmission");
+    if (ext != g.extensions.end() && ext->second.IsObject()) {
+        const tinygltf::Value& v = ext->second;
+        if (v.Has("transmissionFactor") && v.Get("transmissionFactor").IsNumber())
+            out.transmission = factor(v.Get("transmissionFactor").GetNumberAsDouble(), "transmissionFactor");
+        if (v.Has("transmissionTexture") && v.Get("transmissionTexture").IsObject()) {
+            const tinygltf::Value& t = v.Get("transmissionTexture");
+            tinygltf::TextureInfo ti;
+            ti.index = t.Has("index") && t.Get("index").IsInt() ? t.Get("index").GetNumberAsInt() : -1;
+            ti.texCoord = t.Has("texCoord") && t.Get("texCoord").IsInt() ? t.Get("texCoord").GetNumberAsInt() : 0;
+            if (ti.index < 0) fail(mdesc + ": transmissionTexture has no index");
+            out.transmission_texture = data_texture(ti, "transmissionTexture");
+        }
+    }
+    ext = g.extensions.find("KHR_materials_ior");
+    if (ext != g.extensions.end() && ext->second.IsObject() && ext->second.Has("ior") &&
+        ext->second.Get("ior").IsNumber()) {
+        const double ior = ext->second.Get("ior").GetNumberAsDouble();
+        // The extension allows 0 (a thin, non-refracting surface); we model ior >= 1.
+        if (!std::isfinite(ior) || ior < 1.0 || ior > 10.0) fail(mdesc + ": KHR_materials_ior ior must be in [1, 10]");
+        out.ior = std::max(1.0f, float(ior));
+    }
+    const bool plain = out.metallic == 0.0f && out.transmission == 0.0f &&
+                       out.metallic_roughness_texture == kNoTexture && out.normal_texture == kNoTexture &&
+                       out.transmission_texture == kNoTexture;
+    // A perfectly rough dielectric is still glossy at grazing angles in glTF; only
+    // metallic 0, roughness 1 and no other maps is close enough to Lambert to keep its speed.
+    if (!(plain && out.roughness >= 1.0f)) out.bsdf = BsdfKind::MetallicRoughness;
 }
 
 // ---------------------------------------------------------------------------------------
@@ -1159,13 +1225,14 @@ void Loader::run() {
     // Images nobody needed and that could not be read: say so, once each.
     for (size_t i = 0; i < m_.images.size(); ++i) {
         const tinygltf::Image& im = m_.images[i];
-        if (im.bufferView < 0 && im.image.empty() && !im.uri.empty() && !textures_.count(int(i)))
+        if (im.bufferView < 0 && im.image.empty() && !im.uri.empty() && !textures_.count(int(i)) &&
+            !linear_textures_.count(int(i)))
             note(image_desc(int(i)) + " not found; not needed (we do not model the texture slots that use it), ignored");
     }
     if (!ignored_material_features_.empty()) {
         std::string s;
         for (const std::string& f : ignored_material_features_) s += (s.empty() ? "" : ", ") + f;
-        note("glTF material features ignored (rendered as diffuse/emissive): " + s);
+        note("glTF material features ignored: " + s);
     }
     if (!m_.animations.empty()) note("animations ignored (" + std::to_string(m_.animations.size()) + ")");
 }

@@ -84,7 +84,7 @@ bool peek_image_size(const unsigned char* b, size_t n, uint32_t& w, uint32_t& h,
 }
 
 bool decode_srgb_texture(const unsigned char* bytes, size_t size, Texture& out,
-                         std::string& why) {
+                         std::string& why, bool srgb) {
     uint32_t w = 0, h = 0;
     if (!peek_image_size(bytes, size, w, h, why)) return false;
     if (w == 0 || h == 0 || uint64_t(w) * h > kMaxImagePixels) {
@@ -116,14 +116,18 @@ bool decode_srgb_texture(const unsigned char* bytes, size_t size, Texture& out,
     if (img.bits == 8) {
         const auto& lut = srgb8_table();
         for (size_t p = 0; p < npix; ++p)
-            for (int c = 0; c < 3; ++c) out.rgb[p * 3 + size_t(c)] = lut[img.image[p * 4 + size_t(c)]];
+            for (int c = 0; c < 3; ++c) {
+                const uint8_t v = img.image[p * 4 + size_t(c)];
+                out.rgb[p * 3 + size_t(c)] = srgb ? lut[v] : float(v) / 255.0f;
+            }
     } else {
         for (size_t p = 0; p < npix; ++p)
             for (int c = 0; c < 3; ++c) {
                 size_t o = (p * 4 + size_t(c)) * 2;
                 uint16_t v;
                 std::memcpy(&v, &img.image[o], 2);  // stb returns native-endian uint16
-                out.rgb[p * 3 + size_t(c)] = srgb_to_linear(float(v) / 65535.0f);
+                const float x = float(v) / 65535.0f;
+                out.rgb[p * 3 + size_t(c)] = srgb ? srgb_to_linear(x) : x;
             }
     }
     return true;

@@ -20,8 +20,10 @@ bool peek_image_size(const unsigned char* bytes, size_t size, uint32_t& width,
                      uint32_t& height, std::string& why);
 
 /// Decodes PNG/JPEG bytes (8 or 16 bit) and converts sRGB to linear float RGB; alpha is
-/// dropped. Returns false with `why` on failure. Never throws for bad data.
+/// dropped. Returns false with `why` on failure. Never throws for bad data. With
+/// `srgb` false the values stay as stored (data textures: metallic-roughness, normal,
+/// transmission).
 bool decode_srgb_texture(const unsigned char* bytes, size_t size, Texture& out,
-                         std::string& why);
+                         std::string& why, bool srgb = true);
 
 }  // namespace scenes::gltf_detail

@@ -33,6 +33,11 @@ check bad-samples 2 "-s" -- "$PT" -s 0 "$SRC/scenes/cornell.dae"
 check bad-accel 2 "--accel" -- "$PT" --accel=octree "$SRC/scenes/cornell.dae"
 check bad-cell 2 "-p" -- "$PT" -r 10 10 -p 20 0 5 5 "$SRC/scenes/cornell.dae"
 check no-scene 2 "scene" -- "$PT"
+printf '50 37.5 1.33 0.1 100\n0 -4 1\n0 0 zz\n' > "$TMP/cam.txt"
+check bad-camera-file 2 "cam.txt: field 11 \\(target.z\\)" -- "$PT" -c "$TMP/cam.txt" -r 8 6 "$SRC/scenes/cornell.dae"
+printf 'not an image' > "$TMP/sky.exr"
+check bad-env-map 2 "sky.exr: cannot read the environment map" -- "$PT" -e "$TMP/sky.exr" -r 8 6 "$SRC/scenes/cornell.dae"
+check bad-lens 2 "-b" -- "$PT" -b -1 "$SRC/scenes/cornell.dae"
 
 # Every bad-input class: exit status 2 and a message naming the file (and the element).
 mkdir -p "$TMP/bad"
@@ -97,6 +102,13 @@ if [ "$st" -ne 130 ] || ! grep -q "partial" "$TMP/int.out" || [ ! -s "$TMP/int.e
   echo "FAIL interrupt: exit $st, expected 130 with a partial image"; tail -3 "$TMP/int.err"; fails=$((fails+1))
 else
   echo "ok   interrupt-writes-partial"; passes=$((passes+1))
+fi
+# Course 3-2 materials render as themselves: no "rendered as diffuse" note.
+check materials-scene 0 "Render time" -- "$PT" -r 16 12 -s 2 -f "$TMP/mat.exr" "$SRC/scenes/cornell_materials.dae"
+if grep -q "rendered as diffuse" "$TMP/err"; then
+  echo "FAIL materials-scene: a CGL material was rendered as diffuse"; fails=$((fails+1))
+else
+  echo "ok   materials-no-diffuse-note"; passes=$((passes+1))
 fi
 leftovers=$(ls -A "$TMP" | grep -c '\.tmp' || true)
 [ "$leftovers" -eq 0 ] || { echo "FAIL temporary files left behind: $(ls -A "$TMP")"; fails=$((fails+1)); }

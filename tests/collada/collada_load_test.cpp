@@ -259,13 +259,19 @@ TEST(ColladaShared, BananaHasTwoLights) {
     EXPECT_NEAR(s.camera->aspect, 1.777778f, 1e-5f);
 }
 
-TEST(ColladaShared, ReplacedBsdfsAreNamedAndNoted) {
+TEST(ColladaShared, GemsAreGlassAndNothingIsReplaced) {
     REQUIRE_SHARED();
     const Scene gems = load_shared("CBgems.dae");
     size_t glass = 0;
-    for (const auto& m : gems.materials) glass += m.replaced == "glass";
+    for (const auto& m : gems.materials) {
+        EXPECT_TRUE(m.replaced.empty()) << m.name;
+        if (m.bsdf != scenes::BsdfKind::Glass) continue;
+        ++glass;
+        EXPECT_FLOAT_EQ(m.ior, 1.45f) << m.name;
+        EXPECT_EQ(m.reflectance, Vec3f(1.0f)) << m.name;
+    }
     EXPECT_EQ(glass, 3u);
-    EXPECT_GE(gems.notes.size(), 3u);
+    for (const auto& n : gems.notes) EXPECT_EQ(n.find("rendered as diffuse"), std::string::npos) << n;
 
     // bunny.dae defines a CGL mirror effect that no material uses: nothing is replaced.
     const Scene bunny = load_shared("bunny.dae");

@@ -308,27 +308,77 @@ TEST(ColladaMaterials, CglEmissionEmitsAndDoesNotReflect) {
     EXPECT_TRUE(s.notes.empty());
 }
 
-TEST(ColladaMaterials, CglMirrorIsReplacedByDiffuseAndNoted) {
+TEST(ColladaMaterials, CglMirrorIsAMirror) {
     const std::string libs =
         geometries(tri_geometry("M")) +
         material("chrome", "0.3 0.4 0.5 1", "<mirror><reflectance>1 0.8 0.4</reflectance></mirror>");
     const Scene s = load(dae(libs, node("n", "", "tri", bind("M", "chrome"))));
     const auto& m = s.materials.at(s.meshes.at(0).material);
-    EXPECT_EQ(m.replaced, "mirror");
-    EXPECT_EQ(m.albedo, Vec3f(0.3f, 0.4f, 0.5f)) << "the diffuse colour wins when present";
+    EXPECT_EQ(m.bsdf, scenes::BsdfKind::Mirror);
+    EXPECT_EQ(m.reflectance, Vec3f(1.0f, 0.8f, 0.4f));
+    EXPECT_TRUE(m.replaced.empty());
     EXPECT_FALSE(m.is_emissive());
-    EXPECT_TRUE(has_note(s, "mirror"));
-    EXPECT_TRUE(has_note(s, "chrome"));
+    EXPECT_FALSE(has_note(s, "diffuse"));
 }
 
-TEST(ColladaMaterials, ReplacedBsdfWithoutDiffuseColourTakesItsReflectance) {
+TEST(ColladaMaterials, CglGlassAndRefractionReadTheirFields) {
+    const auto one = [](const std::string& name, const std::string& cgl) {
+        const Scene s = load(dae(geometries(tri_geometry("M")) + material(name, "", cgl),
+                                 node("n", "", "tri", collada_test::bind("M", name))));
+        return s.materials.at(s.meshes.at(0).material);
+    };
+    const auto m = one("gem", "<glass><reflectance>1 0.5 0.25</reflectance><transmittance>0.5 1 1</transmittance>"
+                              "<roughness>0</roughness><ior>1.45</ior></glass>");
+    EXPECT_EQ(m.bsdf, scenes::BsdfKind::Glass);
+    EXPECT_EQ(m.reflectance, Vec3f(1.0f, 0.5f, 0.25f));
+    EXPECT_EQ(m.transmittance, Vec3f(0.5f, 1.0f, 1.0f));
+    EXPECT_FLOAT_EQ(m.ior, 1.45f);
+    const auto w = one("water", "<refraction><transmittance>1 1 1</transmittance><ior>1.33</ior></refraction>");
+    EXPECT_EQ(w.bsdf, scenes::BsdfKind::Glass);
+    EXPECT_EQ(w.reflectance, Vec3f(0.0f)) << "the course's refraction BSDF only transmits";
+    EXPECT_FLOAT_EQ(w.ior, 1.33f);
+}
+
+TEST(ColladaMaterials, CglMicrofacetReadsAlphaEtaK) {
     const std::string libs =
         geometries(tri_geometry("M")) +
-        material("gem", "", "<glass><reflectance>1 0.5 0.25</reflectance><ior>1.5</ior></glass>");
-    const Scene s = load(dae(libs, node("n", "", "tri", bind("M", "gem"))));
+        material("gold", "", "<microfacet><alpha>0.25</alpha><eta>0.2 0.4 1.3</eta><k>3.2 2.5 1.9</k></microfacet>");
+    const Scene s = load(dae(libs, node("n", "", "tri", bind("M", "gold"))));
     const auto& m = s.materials.at(s.meshes.at(0).material);
-    EXPECT_EQ(m.replaced, "glass");
+    EXPECT_EQ(m.bsdf, scenes::BsdfKind::Microfacet);
+    EXPECT_FLOAT_EQ(m.alpha, 0.25f);
+    EXPECT_EQ(m.eta, Vec3f(0.2f, 0.4f, 1.3f));
+    EXPECT_EQ(m.k, Vec3f(3.2f, 2.5f, 1.9f));
+}
+
+TEST(ColladaMaterials, CglSpectrumMayBeOneNumber) {
+    const std::string libs =
+        geometries(tri_geometry("M")) + material("al", "", "<microfacet><alpha>0.1</alpha><eta>1.2</eta><k>7</k></microfacet>");
+    const Scene s = load(dae(libs, node("n", "", "tri", bind("M", "al"))));
+    const auto& m = s.materials.at(s.meshes.at(0).material);
+    EXPECT_EQ(m.eta, Vec3f(1.2f));
+    EXPECT_EQ(m.k, Vec3f(7.0f));
+}
+
+TEST(ColladaMaterials, BadBsdfParametersNameTheElement) {
+    const std::string libs = geometries(tri_geometry("M")) +
+                             material("bad", "", "<glass><ior>-1</ior></glass>");
+    try {
+        load(dae(libs, node("n", "", "tri", bind("M", "bad"))));
+        FAIL() << "negative ior accepted";
+    } catch (const scenes::SceneError& e) {
+        EXPECT_NE(std::string(e.what()).find("ior"), std::string::npos) << e.what();
+    }
+}
+
+TEST(ColladaMaterials, UnknownCglBsdfIsReplacedByDiffuseAndNoted) {
+    const std::string libs =
+        geometries(tri_geometry("M")) + material("odd", "", "<velvet><reflectance>1 0.5 0.25</reflectance></velvet>");
+    const Scene s = load(dae(libs, node("n", "", "tri", bind("M", "odd"))));
+    const auto& m = s.materials.at(s.meshes.at(0).material);
+    EXPECT_EQ(m.replaced, "velvet");
     EXPECT_EQ(m.albedo, Vec3f(1.0f, 0.5f, 0.25f));
+    EXPECT_TRUE(has_note(s, "velvet"));
 }
 
 TEST(ColladaMaterials, CglDiffuseSetsTheAlbedo) {

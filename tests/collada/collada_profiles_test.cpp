@@ -89,13 +89,14 @@ TEST(ColladaProfiles, Cmu462SpheresLightEmissionAndBsdfs) {
     const scenes::Material* mirror = material_named(s, "mirror");
     ASSERT_NE(mirror, nullptr);
     EXPECT_EQ(s.materials[s.spheres[0].material].name, "mirror");
-    // However the mirror is rendered, it was read from the CMU462 technique: it is no
-    // longer the plain profile_COMMON lambert it would be if the extra were ignored.
+    // The mirror was read from the CMU462 technique as a mirror, not rendered as diffuse;
+    // with the extra ignored it is the plain profile_COMMON lambert.
+    EXPECT_EQ(mirror->bsdf, scenes::BsdfKind::Mirror);
+    EXPECT_TRUE(mirror->replaced.empty());
     const Scene ignored = load(replace_all(doc, "profile=\"CMU462\"", "profile=\"other\""));
     const scenes::Material* plain = material_named(ignored, "mirror");
     ASSERT_NE(plain, nullptr);
-    EXPECT_TRUE(plain->replaced.empty());
-    EXPECT_FALSE(mirror->replaced.empty() && mirror->albedo == plain->albedo);
+    EXPECT_EQ(plain->bsdf, scenes::BsdfKind::Diffuse);
 }
 
 // The case: a scene of CMU462 spheres alone was refused as "empty scene".

@@ -73,9 +73,11 @@ TEST(GltfShared, Suzanne) {
     EXPECT_EQ(m.name, "Suzanne");
     ASSERT_NE(m.albedo_texture, scenes::kNoTexture);
     EXPECT_EQ(m.emission_texture, scenes::kNoTexture);
-    EXPECT_FALSE(m.replaced.empty()) << "default metallicFactor is 1";
-    // Only the base colour image is decoded; the metallic-roughness one is not.
-    ASSERT_EQ(s.textures.size(), 1u);
+    EXPECT_EQ(m.bsdf, scenes::BsdfKind::MetallicRoughness) << "default metallicFactor is 1";
+    EXPECT_TRUE(m.replaced.empty());
+    // The base colour and the metallic-roughness images are decoded.
+    ASSERT_EQ(s.textures.size(), 2u);
+    ASSERT_NE(m.metallic_roughness_texture, scenes::kNoTexture);
     const scenes::Texture& t = s.textures[m.albedo_texture];
     auto [w, h] = png_size(shared("Suzanne/Suzanne_BaseColor.png"));
     EXPECT_EQ(t.width, w);
@@ -84,7 +86,7 @@ TEST(GltfShared, Suzanne) {
     for (float v : t.rgb) ASSERT_TRUE(v >= 0.0f && v <= 1.0f);
     EXPECT_TRUE(s.lights.empty());
     EXPECT_FALSE(s.camera.has_value());
-    EXPECT_TRUE(has_note(s, "metallic-roughness"));
+    EXPECT_FALSE(has_note(s, "metallic-roughness")) << "modelled, not ignored";
 }
 
 TEST(GltfShared, DamagedHelmet) {
@@ -102,7 +104,10 @@ TEST(GltfShared, DamagedHelmet) {
     EXPECT_TRUE(m.is_emissive());
     ASSERT_NE(m.albedo_texture, scenes::kNoTexture);
     ASSERT_NE(m.emission_texture, scenes::kNoTexture);
-    EXPECT_EQ(s.textures.size(), 2u) << "base colour + emissive; MR/normal/occlusion not decoded";
+    EXPECT_EQ(m.bsdf, scenes::BsdfKind::MetallicRoughness);
+    EXPECT_NE(m.metallic_roughness_texture, scenes::kNoTexture);
+    EXPECT_NE(m.normal_texture, scenes::kNoTexture);
+    EXPECT_EQ(s.textures.size(), 4u) << "base colour, emissive, metallic-roughness, normal; occlusion not decoded";
     for (const auto& t : s.textures) {
         EXPECT_EQ(t.width, 2048u);
         EXPECT_EQ(t.height, 2048u);
@@ -133,7 +138,9 @@ TEST(GltfShared, BoomBoxMissingUnneededTexture) {
     const scenes::Material& m = s.materials[0];
     ASSERT_NE(m.albedo_texture, scenes::kNoTexture);
     ASSERT_NE(m.emission_texture, scenes::kNoTexture);
-    EXPECT_EQ(s.textures.size(), 2u);
+    EXPECT_EQ(m.metallic_roughness_texture, scenes::kNoTexture) << "its image is missing: factors alone";
+    EXPECT_NE(m.normal_texture, scenes::kNoTexture);
+    EXPECT_EQ(s.textures.size(), 3u);
     auto [bw, bh] = png_size(shared("BoomBox/BoomBox_baseColor.png"));
     auto [ew, eh] = png_size(shared("BoomBox/BoomBox_emissive.png"));
     EXPECT_EQ(s.textures[m.albedo_texture].width, bw);
@@ -141,8 +148,8 @@ TEST(GltfShared, BoomBoxMissingUnneededTexture) {
     EXPECT_EQ(s.textures[m.emission_texture].width, ew);
     EXPECT_EQ(s.textures[m.emission_texture].height, eh);
     EXPECT_FALSE(s.meshes[0].uvs.empty());
-    // Normal and occlusion maps are reported as ignored, not decoded.
-    EXPECT_TRUE(has_note(s, "normalTexture"));
+    // The occlusion map is reported as ignored, not decoded.
+    EXPECT_TRUE(has_note(s, "occlusionTexture"));
 }
 
 }  // namespace

@@ -23,7 +23,7 @@ struct Cornell {
     scenes::Scene scene = scenes::load_scene(PT_SOURCE_DIR "/scenes/cornell.dae");
     SceneGeometry geometry{scene};
     std::vector<std::string> notes;
-    LightSet lights{scene, notes};
+    LightSet lights{scene, LightModel::Course, notes};
     std::unique_ptr<accel::Accelerator> accel = build_accelerator("custom", geometry, {}, false);
     std::unique_ptr<Integrator> integrator;
     Camera camera;

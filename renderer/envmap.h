@@ -1,0 +1,52 @@
+// Environment light from a latitude-longitude image (-e FILE): radiance by direction and
+// importance sampling from a piecewise-constant 2D distribution of luminance x sin(theta)
+// (pbrt-v4 ImageInfiniteLight with PiecewiseConstant2D; Pharr, Jakob, Humphreys,
+// "Physically Based Rendering" 4th ed., A.5.6 and 12.5.2). The image's pole is the scene's
+// up axis; row 0 is straight up, u runs with the azimuth.
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include "accel/math.h"
+#include "scenes/scene.h"
+
+namespace renderer {
+
+using accel::Vec3f;
+
+/// Reads an EXR/HDR (anything OpenImageIO reads) as linear float RGB. Throws
+/// scenes::SceneError naming the file when it cannot be read or is not an image.
+scenes::Texture load_environment_image(const std::string& path);
+
+class EnvironmentMap {
+public:
+    EnvironmentMap() = default;
+    /// `up`: the scene's up axis (the map's pole). `scale` multiplies the radiance.
+    EnvironmentMap(const scenes::Texture& image, const Vec3f& up, const Vec3f& scale = Vec3f(1.0f));
+
+    bool empty() const { return w_ == 0; }
+    Vec3f radiance(const Vec3f& dir) const;
+    /// Direction by importance; pdf in solid angle. False if the map is black.
+    bool sample(float u1, float u2, Vec3f& dir, float& pdf, Vec3f& radiance) const;
+    float pdf(const Vec3f& dir) const;
+    /// Uniform-sphere sampling of the same map, kept for the variance comparison test.
+    static constexpr float kUniformPdf = 1.0f / (4.0f * accel::kPi);
+
+private:
+    void to_uv(const Vec3f& dir, float& u, float& v) const;
+    Vec3f from_uv(float u, float v) const;
+    Vec3f texel(uint32_t x, uint32_t y) const;
+
+    uint32_t w_ = 0, h_ = 0;
+    std::vector<float> rgb_;
+    Vec3f scale_{1.0f};
+    Vec3f e1_, e2_, up_;               // frame: up_ is the pole
+    std::vector<float> row_cdf_;       // h_+1 entries, marginal over rows
+    std::vector<float> col_cdf_;       // h_ * (w_+1), conditional per row
+    std::vector<float> row_func_;      // per-row integral (unnormalised)
+    std::vector<float> func_;          // per-texel weight
+    float total_ = 0;                  // integral of func over [0,1]^2
+};
+
+}  // namespace renderer
