@@ -20,6 +20,7 @@
 #include <emmintrin.h>
 
 #include <cmath>
+#include <utility>
 #include <limits>
 
 #include "accel/bvh/base.h"
@@ -33,6 +34,7 @@ namespace accel::bvh::PT_KERNEL_NS {
 constexpr float kUnitRoundoff = std::numeric_limits<float>::epsilon() * 0.5f;
 constexpr float gamma_n(int n) { return (n * kUnitRoundoff) / (1 - n * kUnitRoundoff); }
 constexpr float kFarScale = 1.0f + 2.0f * gamma_n(3);
+
 
 /// Per-ray slab constants: inverse direction, and for each axis which row of the box is
 /// the near plane, picked by the sign bit so that -0 behaves like a negative direction.
@@ -259,14 +261,25 @@ uint32_t traverse(const WideBvh& w, const Ray& ray_in, float& t_io, float& u_out
                     continue;
                 }
                 if constexpr (AnyHit) {
-                    // Any hit ends the query, so order buys little: push the rest.
-                    ref = n.child[i];
-                    count = n.count[i];
+                    // Any hit ends the query: enter the nearest child (most likely to
+                    // hold the occluder), push the rest unsorted (sorting measured slower).
+                    int best = i;
+                    stack[sp++] = {n.child[i], n.count[i], dist[i]};
                     do {
                         i = __builtin_ctz(mask);
                         mask &= mask - 1;
                         stack[sp++] = {n.child[i], n.count[i], dist[i]};
+                        if (dist[i] < dist[best]) best = i;
                     } while (mask);
+                    // Swap the nearest to the top, then pop it.
+                    for (uint32_t k = sp - 1;; --k)
+                        if (stack[k].ref == n.child[best]) {
+                            std::swap(stack[k], stack[sp - 1]);
+                            break;
+                        }
+                    --sp;
+                    ref = n.child[best];
+                    count = n.count[best];
                     continue;
                 }
                 int j = __builtin_ctz(mask);
