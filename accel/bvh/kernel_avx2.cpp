@@ -9,37 +9,12 @@
 namespace accel::bvh::avx2 {
 namespace {
 
-struct Avx2 {
-    struct Box {
-        __m256 o[3], inv[3], t_min, inf, scale;
-        int nx, ny, nz, fx, fy, fz;
-        Box(const Planes& p, float tmin) {
-            for (int a = 0; a < 3; ++a) o[a] = _mm256_set1_ps(p.org[a]), inv[a] = _mm256_set1_ps(p.inv[a]);
-            t_min = _mm256_set1_ps(tmin), inf = _mm256_set1_ps(kInfinity), scale = _mm256_set1_ps(kFarScale);
-            nx = p.near[0], ny = p.near[1], nz = p.near[2], fx = p.far[0], fy = p.far[1], fz = p.far[2];
-        }
-    };
-    /// The subtract-then-multiply form (not an FMA of precomputed org*inv): its two
-    /// roundings are what Ize's far-distance scale is proven for. NaN operands go first
-    /// in max/min so the accumulator wins (vmaxps returns the second operand on NaN).
-    static unsigned test(const WideNode& n, const Box& r, float t, float* dist) {
-        const __m256 tnx = _mm256_mul_ps(_mm256_sub_ps(_mm256_load_ps(n.b[r.nx]), r.o[0]), r.inv[0]);
-        const __m256 tny = _mm256_mul_ps(_mm256_sub_ps(_mm256_load_ps(n.b[r.ny]), r.o[1]), r.inv[1]);
-        const __m256 tnz = _mm256_mul_ps(_mm256_sub_ps(_mm256_load_ps(n.b[r.nz]), r.o[2]), r.inv[2]);
-        const __m256 tfx = _mm256_mul_ps(_mm256_sub_ps(_mm256_load_ps(n.b[r.fx]), r.o[0]), r.inv[0]);
-        const __m256 tfy = _mm256_mul_ps(_mm256_sub_ps(_mm256_load_ps(n.b[r.fy]), r.o[1]), r.inv[1]);
-        const __m256 tfz = _mm256_mul_ps(_mm256_sub_ps(_mm256_load_ps(n.b[r.fz]), r.o[2]), r.inv[2]);
-        const __m256 t0 = _mm256_max_ps(tnx, _mm256_max_ps(tny, _mm256_max_ps(tnz, r.t_min)));
-        const __m256 t1f = _mm256_min_ps(tfx, _mm256_min_ps(tfy, _mm256_min_ps(tfz, r.inf)));
-        const __m256 t1 = _mm256_mul_ps(_mm256_min_ps(t1f, _mm256_set1_ps(t)), r.scale);
-        _mm256_store_ps(dist, t0);
-        return unsigned(_mm256_movemask_ps(_mm256_cmp_ps(t0, t1, _CMP_LE_OQ)));
-    }
-};
+#define PT_NODE8_MASK(t0, t1) unsigned(_mm256_movemask_ps(_mm256_cmp_ps(t0, t1, _CMP_LE_OQ)))
+#include "accel/bvh/node8.h"
 
 }  // namespace
 }  // namespace accel::bvh::avx2
 
 namespace accel::bvh {
-std::unique_ptr<BvhBase> make_kernel_avx2(TriangleTest test) { return avx2::make_kernel<avx2::Avx2>(test); }
+std::unique_ptr<BvhBase> make_kernel_avx2(TriangleTest test) { return avx2::make_kernel<avx2::Node8>(test); }
 }  // namespace accel::bvh
