@@ -263,23 +263,19 @@ uint32_t traverse(const WideBvh& w, const Ray& ray_in, float& t_io, float& u_out
                 if constexpr (AnyHit) {
                     // Any hit ends the query: enter the nearest child (most likely to
                     // hold the occluder), push the rest unsorted (sorting measured slower).
-                    int best = i;
+                    uint32_t best = sp;
                     stack[sp++] = {n.child[i], n.count[i], dist[i]};
                     do {
                         i = __builtin_ctz(mask);
                         mask &= mask - 1;
+                        if (dist[i] < stack[best].t) best = sp;
                         stack[sp++] = {n.child[i], n.count[i], dist[i]};
-                        if (dist[i] < dist[best]) best = i;
                     } while (mask);
                     // Swap the nearest to the top, then pop it.
-                    for (uint32_t k = sp - 1;; --k)
-                        if (stack[k].ref == n.child[best]) {
-                            std::swap(stack[k], stack[sp - 1]);
-                            break;
-                        }
+                    std::swap(stack[best], stack[sp - 1]);
                     --sp;
-                    ref = n.child[best];
-                    count = n.count[best];
+                    ref = stack[sp].ref;
+                    count = stack[sp].count;
                     continue;
                 }
                 int j = __builtin_ctz(mask);
