@@ -18,6 +18,9 @@
 #endif
 
 #include <emmintrin.h>
+#ifdef __AVX__
+#include <immintrin.h>
+#endif
 
 #include <cmath>
 #include <utility>
@@ -61,6 +64,29 @@ struct Planes {
             t1 = tf < t1 ? tf : t1;
         }
         return t0 <= std::min(t1, t_max) * kFarScale;
+    }
+};
+
+/// Broadcast of one float to every lane of V (kernel files add their wider types).
+template <class V>
+V splat(float x);
+template <>
+inline __m128 splat<__m128>(float x) { return _mm_set1_ps(x); }
+#ifdef __AVX__  // only the files compiled with -mavx2 or wider see 256-bit vectors
+template <>
+inline __m256 splat<__m256>(float x) { return _mm256_set1_ps(x); }
+#endif
+
+/// Per-ray constants of a node test over vectors V: origin, inverse direction, the
+/// accumulators' start values and the near/far rows of Planes.
+template <class V>
+struct BoxConstants {
+    V o[3], inv[3], t_min, inf, scale;
+    int nx, ny, nz, fx, fy, fz;
+    BoxConstants(const Planes& p, float tmin) {
+        for (int a = 0; a < 3; ++a) o[a] = splat<V>(p.org[a]), inv[a] = splat<V>(p.inv[a]);
+        t_min = splat<V>(tmin), inf = splat<V>(kInfinity), scale = splat<V>(kFarScale);
+        nx = p.near[0], ny = p.near[1], nz = p.near[2], fx = p.far[0], fy = p.far[1], fz = p.far[2];
     }
 };
 

@@ -8,15 +8,7 @@ namespace accel::bvh::sse2 {
 namespace {
 
 struct Sse2 {
-    struct Box {
-        __m128 o[3], inv[3], t_min, inf, scale;
-        int nx, ny, nz, fx, fy, fz;
-        Box(const Planes& p, float tmin) {
-            for (int a = 0; a < 3; ++a) o[a] = _mm_set1_ps(p.org[a]), inv[a] = _mm_set1_ps(p.inv[a]);
-            t_min = _mm_set1_ps(tmin), inf = _mm_set1_ps(kInfinity), scale = _mm_set1_ps(kFarScale);
-            nx = p.near[0], ny = p.near[1], nz = p.near[2], fx = p.far[0], fy = p.far[1], fz = p.far[2];
-        }
-    };
+    using Box = BoxConstants<__m128>;
     /// Slab test of the eight child boxes; returns the hit mask, entry distances in dist.
     /// _mm_max_ps/_mm_min_ps return their SECOND operand when either is NaN, so the
     /// possibly-NaN slab distance goes first and the never-NaN accumulator second.

@@ -4,15 +4,7 @@
 #pragma once
 
 struct Node8 {
-    struct Box {
-        __m256 o[3], inv[3], t_min, inf, scale;
-        int nx, ny, nz, fx, fy, fz;
-        Box(const Planes& p, float tmin) {
-            for (int a = 0; a < 3; ++a) o[a] = _mm256_set1_ps(p.org[a]), inv[a] = _mm256_set1_ps(p.inv[a]);
-            t_min = _mm256_set1_ps(tmin), inf = _mm256_set1_ps(kInfinity), scale = _mm256_set1_ps(kFarScale);
-            nx = p.near[0], ny = p.near[1], nz = p.near[2], fx = p.far[0], fy = p.far[1], fz = p.far[2];
-        }
-    };
+    using Box = BoxConstants<__m256>;
     /// The subtract-then-multiply form (not an FMA of precomputed org*inv): its two
     /// roundings are what Ize's far-distance scale is proven for. NaN operands go first
     /// in max/min so the accumulator wins (vmaxps returns the second operand on NaN).
