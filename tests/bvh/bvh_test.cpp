@@ -130,6 +130,14 @@ void expect_valid(const Accelerator& a, uint32_t leaf_size, uint64_t expected_pr
     EXPECT_LE(rep->max_leaf_size, leaf_size);
     EXPECT_EQ(rep->leaf_size_limit, leaf_size);
     EXPECT_EQ(rep->primitives, expected_prims);
+    // Every leaf packs into ceil(count / 4) blocks: at least a quarter of all lanes hold
+    // a primitive (leaves of one), and none is empty.
+    if (expected_prims) {
+        EXPECT_GE(rep->blocks, (expected_prims + 3) / 4);
+        EXPECT_GE(rep->filled_lanes, 0.25);
+        EXPECT_LE(rep->filled_lanes, 1.0);
+        EXPECT_GE(rep->wide_nodes, 1u);
+    }
     const BuildInfo& info = a.info();
     EXPECT_EQ(info.primitives, expected_prims);
     EXPECT_EQ(info.nodes, rep->nodes);
