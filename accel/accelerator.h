@@ -56,6 +56,8 @@ struct GeometryView {
 enum class TriangleTest : uint8_t { Fast, Watertight };  // Möller–Trumbore | Woop 2013
 enum class BvhSplit : uint8_t { Midpoint, Sah };
 enum class EmbreeQuality : uint8_t { Low, Medium, High };
+/// Instruction set of the custom BVH's traversal kernel; Auto picks by CPUID at run time.
+enum class Isa : uint8_t { Auto, Sse2, Avx2, Avx512 };
 
 struct AccelOptions {
     TriangleTest triangle = TriangleTest::Fast;
@@ -67,11 +69,12 @@ struct AccelOptions {
     /// intersector, so Embree's primitive tests per ray are counted on our terms.
     bool embree_count = false;
     int build_threads = 0;           ///< 0 = all cores
+    Isa isa = Isa::Auto;             ///< custom BVH kernel (see accel/bvh/bvh.h)
 };
 
 /// Facts about a built accelerator, for the summary and the benchmarks.
 struct BuildInfo {
-    std::string backend;       ///< e.g. "custom(sah, watertight)"
+    std::string backend;       ///< e.g. "custom(sah, watertight, avx2)": names the kernel that runs
     uint64_t primitives = 0;   ///< primitives actually inserted
     uint64_t dropped = 0;      ///< degenerate primitives dropped at build time
     uint64_t nodes = 0;        ///< interior + leaf nodes (0 if not applicable)

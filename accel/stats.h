@@ -13,6 +13,9 @@ struct TraceStats {
     uint64_t shadow_rays = 0;   ///< any-hit (occlusion) queries
     uint64_t nodes_visited = 0; ///< BVH nodes whose boxes were tested (0 for naive)
     uint64_t prim_tests = 0;    ///< ray-primitive intersection tests
+    /// Backends may skip counting nodes and tests when false (the custom BVH then runs
+    /// an instantiation without counters); rays and shadow_rays are always counted.
+    bool counting = true;
 
     TraceStats& operator+=(const TraceStats& o) {
         rays += o.rays;

@@ -15,6 +15,7 @@
 
 #include <sys/resource.h>
 
+#include "accel/bvh/bvh.h"
 #include "renderer/backend_spec.h"
 #include "renderer/camera.h"
 #include "renderer/integrators/normals.h"
@@ -34,7 +35,7 @@ using Clock = std::chrono::steady_clock;
 struct Row {
     std::string scene;
     uint64_t triangles;
-    std::string backend, kind;
+    std::string backend, kernel, kind;
     int threads;
     double mrays, ratio = 0, tests_per_ray, nodes_per_ray, build_ms;
     uint64_t bytes;
@@ -60,6 +61,7 @@ double measure(const accel::Accelerator& a, const renderer::RaySet& set, int thr
     tbb::task_arena arena(threads);
     for (int r = 0; r < repeats; ++r) {
         accel::TraceStats st;
+        st.counting = stats.counting;
         const auto t0 = Clock::now();
         arena.execute([&] { renderer::trace_set(a, set, st); });
         const double s = std::chrono::duration<double>(Clock::now() - t0).count();
@@ -117,6 +119,10 @@ int main(int argc, char** argv) {
     app.add_option("--repeats", repeats, "Timed repeats; the median is reported (default 3)");
     app.add_option("--build-repeats", build_repeats, "Builds per backend; the median time is reported (default 1)");
     app.add_option("--threads", thread_counts, "Thread counts (default: 1 and all cores)");
+    std::string isa_arg = "auto";
+    app.add_option("--isa", isa_arg, "Kernel of custom backends that name none: auto | sse2 | avx2 | avx512 "
+                                     "(or name it per backend: custom:sah:sse2)")
+        ->check(CLI::IsMember({"auto", "sse2", "avx2", "avx512"}));
     app.add_flag("--quick", quick, "Smoke run: 5000 rays, 1 repeat, default scene only unless --scene");
     app.add_flag("--no-course", no_course, "Skip the course's with/without-BVH comparison on cow");
     tools::parse_or_exit(app, argc, argv, "accel_bench");
@@ -155,13 +161,13 @@ int main(int argc, char** argv) {
             {
                 std::ofstream out(tmp);
                 out << "scene,triangles,backend,ray_kind,threads,mrays_per_s,ratio_to_embree,tests_per_ray,"
-                       "nodes_per_ray,build_ms,bytes,cpu_util\n";
+                       "nodes_per_ray,build_ms,bytes,cpu_util,kernel\n";
                 for (const Row& r : rows)
-                    out << fmt::format("{},{},{},{},{},{:.4f},{:.4f},{},{},{:.2f},{},{:.2f}\n", r.scene, r.triangles,
+                    out << fmt::format("{},{},{},{},{},{:.4f},{:.4f},{},{},{:.2f},{},{:.2f},{}\n", r.scene, r.triangles,
                                        r.backend, r.kind, r.threads, r.mrays, r.ratio,
                                        r.counts_prims ? fmt::format("{:.3f}", r.tests_per_ray) : "",
                                        r.counts_nodes ? fmt::format("{:.3f}", r.nodes_per_ray) : "", r.build_ms,
-                                       r.bytes, r.cpu_util);
+                                       r.bytes, r.cpu_util, r.kernel);
                 if (!out) fail(csv_path + ": write failed");
             }
             std::filesystem::rename(tmp, csv_path);
@@ -184,6 +190,9 @@ int main(int argc, char** argv) {
         std::vector<renderer::BackendSpec> specs;
         try {
             specs = renderer::parse_backend_specs(list);
+            accel::Isa isa = accel::Isa::Auto;
+            accel::parse_isa(isa_arg, isa);
+            renderer::apply_isa(specs, isa);
         } catch (const std::invalid_argument& e) {
             fail(e.what());
         }
@@ -233,14 +242,20 @@ int main(int argc, char** argv) {
             for (int round = 0; round < std::max(1, repeats); ++round)
                 for (Cell& c : cells) {
                     if (specs[c.backend].backend == "naive" && round > 0) continue;  // minutes per trace
+                    if (round == 0) {
+                        // Counts come from one untimed counting pass (it also warms the
+                        // caches); the timed traces run the backends' lean, uncounted path.
+                        tbb::task_arena arena(c.threads);
+                        arena.execute([&] { renderer::trace_set(*accels[c.backend], set, c.stats); });
+                    }
                     accel::TraceStats st;
+                    st.counting = false;
                     double util = 0;
                     const double mr = measure(*accels[c.backend], set, c.threads, 1, st, util);
                     c.rates.push_back(mr);
                     const double wall = double(set.rays.size()) / (mr * 1e6);
                     c.wall += wall;
                     c.cpu += util * wall;
-                    if (round == 0) c.stats = st;
                 }
             for (int threads : thread_counts) {
                 std::map<std::string, double> rate;
@@ -251,7 +266,7 @@ int main(int argc, char** argv) {
                     const double mr = c.rates[c.rates.size() / 2];
                     const size_t i = c.backend;
                     const auto& info = accels[i]->info();
-                    rows.push_back({name, tris, specs[i].label, renderer::ray_kind_name(kind), threads, mr, 0,
+                    rows.push_back({name, tris, specs[i].label, renderer::kernel_name(specs[i]), renderer::ray_kind_name(kind), threads, mr, 0,
                                     c.stats.tests_per_ray(), c.stats.nodes_per_ray(), build_ms[i], info.bytes,
                                     info.counts_prims, info.counts_nodes, c.cpu / std::max(c.wall, 1e-9)});
                     rate[specs[i].label] = mr;
@@ -263,11 +278,12 @@ int main(int argc, char** argv) {
         write_csv();
     }
 
-    std::printf("%-18s %9s %-22s %-8s %3s %9s %9s %10s %10s %9s %10s %5s\n", "scene", "triangles", "backend", "rays",
+    std::printf("%-18s %9s %-22s %-7s %-8s %3s %9s %9s %10s %10s %9s %10s %5s\n", "scene", "triangles", "backend",
+                "kernel", "rays",
                 "thr", "Mrays/s", "vs embree", "tests/ray", "nodes/ray", "build ms", "MiB", "cpus");
     for (const Row& r : rows)
-        std::printf("%-18s %9llu %-22s %-8s %3d %9.3f %9.3f %10s %10s %9.1f %10.2f %5.2f\n", r.scene.c_str(),
-                    (unsigned long long)r.triangles, r.backend.c_str(), r.kind.c_str(), r.threads, r.mrays,
+        std::printf("%-18s %9llu %-22s %-7s %-8s %3d %9.3f %9.3f %10s %10s %9.1f %10.2f %5.2f\n", r.scene.c_str(),
+                    (unsigned long long)r.triangles, r.backend.c_str(), r.kernel.c_str(), r.kind.c_str(), r.threads, r.mrays,
                     r.ratio, r.counts_prims ? fmt::format("{:.2f}", r.tests_per_ray).c_str() : "-",
                     r.counts_nodes ? fmt::format("{:.2f}", r.nodes_per_ray).c_str() : "-", r.build_ms,
                     double(r.bytes) / (1024.0 * 1024.0), r.cpu_util);

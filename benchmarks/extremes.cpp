@@ -15,6 +15,7 @@
 #include <filesystem>
 #include <fstream>
 
+#include "accel/bvh/bvh.h"
 #include "benchmarks/extremes.h"
 #include "tools/cli.h"
 
@@ -50,6 +51,9 @@ int main(int argc, char** argv) {
     app.add_option("--scenes", scenes_dir, "Folder with cow.dae, teapot.dae, bunny.dae");
     app.add_option("--csv", csv, "CSV output (one row per placement, mesh and backend)");
     app.add_option("--seed", seed, "Random seed");
+    std::string isa = "auto";
+    app.add_option("--isa", isa, "Kernel of the custom backends: auto | sse2 | avx2 | avx512")
+        ->check(CLI::IsMember({"auto", "sse2", "avx2", "avx512"}));
     std::vector<double> only;
     app.add_option("--placement", only, "Only this placement: SCALE OFFSET (e.g. --placement 1e3 1e6)")
         ->expected(2);
@@ -90,7 +94,9 @@ int main(int argc, char** argv) {
     std::vector<std::string> available = accel::available_backends();
     const bool have_embree = !no_embree && std::find(available.begin(), available.end(), "embree") != available.end();
     if (!no_embree && !have_embree) std::printf("embree: not in this build, skipped\n");
-    const std::vector<BackendCase> backends = backend_cases(have_embree);
+    std::vector<BackendCase> backends = backend_cases(have_embree);
+    for (BackendCase& b : backends)
+        if (b.backend == "custom") accel::parse_isa(isa, b.options.isa);
 
     std::ofstream out(csv);
     out << "scale,offset,mesh,backend,dropped,leak_rays,leaks,axis_rays,axis_leaks,vertex_rays,vertex_leaks,"

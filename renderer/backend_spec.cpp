@@ -1,5 +1,7 @@
 #include "renderer/backend_spec.h"
 
+#include "accel/bvh/bvh.h"
+
 #include <sstream>
 #include <stdexcept>
 
@@ -18,6 +20,7 @@ BackendSpec parse_backend_spec(const std::string& spec) {
                                     "' (naive, custom, embree)");
     std::string tri = "fast", split = "sah", quality = "high";
     bool robust = false, count = false;
+    accel::Isa isa = accel::Isa::Auto;
     unsigned leaf = 0;
     for (size_t i = 1; i < words.size(); ++i) {
         const std::string& w = words[i];
@@ -26,6 +29,7 @@ BackendSpec parse_backend_spec(const std::string& spec) {
         else if (b.backend == "custom" && w.rfind("leaf", 0) == 0 && w.size() > 4) {
             leaf = unsigned(std::stoul(w.substr(4)));
             if (leaf < 1 || leaf > 255) throw std::invalid_argument("backend spec '" + spec + "': leaf size 1..255");
+        } else if (b.backend == "custom" && w != "auto" && accel::parse_isa(w, isa)) {
         } else if (b.backend == "embree" && (w == "low" || w == "medium" || w == "high")) quality = w;
         else if (b.backend == "embree" && w == "robust") robust = true;
         else if (b.backend == "embree" && w == "count") count = true;
@@ -39,13 +43,29 @@ BackendSpec parse_backend_spec(const std::string& spec) {
                                : quality == "medium" ? accel::EmbreeQuality::Medium
                                                      : accel::EmbreeQuality::High;
     b.options.embree_robust = robust;
+    b.options.isa = isa;
     b.options.embree_count = count;
     // Normalised label: embree's triangle test only matters in counting mode.
     b.label = b.backend;
     if (b.backend == "custom") b.label += ":" + split + (leaf ? ":leaf" + std::to_string(leaf) : "");
+    if (isa != accel::Isa::Auto) b.label += std::string(":") + accel::isa_name(isa);
     if (b.backend == "embree") b.label += ":" + quality + (robust ? ":robust" : "") + (count ? ":count" : "");
     if (b.backend != "embree" || count) b.label += ":" + tri;
     return b;
+}
+
+void apply_isa(std::vector<BackendSpec>& specs, accel::Isa isa) {
+    if (isa == accel::Isa::Auto) return;
+    for (BackendSpec& s : specs)
+        if (s.backend == "custom" && s.options.isa == accel::Isa::Auto) {
+            s.options.isa = isa;
+            s.label += std::string(":") + accel::isa_name(isa);
+        }
+}
+
+std::string kernel_name(const BackendSpec& spec) {
+    if (spec.backend != "custom") return spec.backend;
+    return accel::isa_name(accel::resolve_isa(spec.options.isa));
 }
 
 std::vector<BackendSpec> parse_backend_specs(const std::string& list) {

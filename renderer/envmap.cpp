@@ -1,39 +1,11 @@
 #include "renderer/envmap.h"
 
-#include <OpenImageIO/imageio.h>
-
 #include <algorithm>
 #include <cmath>
 
 #include "renderer/sampling.h"
 
 namespace renderer {
-
-scenes::Texture load_environment_image(const std::string& path) {
-    auto in = OIIO::ImageInput::open(path);
-    if (!in) throw scenes::SceneError(path + ": cannot read the environment map (" + OIIO::geterror() + ")");
-    const OIIO::ImageSpec& spec = in->spec();
-    if (spec.width <= 0 || spec.height <= 0 || spec.nchannels < 1 || uint64_t(spec.width) * spec.height > (1u << 28))
-        throw scenes::SceneError(path + ": environment map has an unsupported size");
-    const int nc = spec.nchannels;
-    std::vector<float> px(size_t(spec.width) * spec.height * nc);
-    if (!in->read_image(0, 0, 0, nc, OIIO::TypeDesc::FLOAT, px.data()))
-        throw scenes::SceneError(path + ": cannot decode the environment map (" + in->geterror() + ")");
-    scenes::Texture t;
-    t.name = path;
-    t.width = uint32_t(spec.width);
-    t.height = uint32_t(spec.height);
-    t.rgb.resize(size_t(t.width) * t.height * 3);
-    for (size_t p = 0; p < size_t(t.width) * t.height; ++p)
-        for (int c = 0; c < 3; ++c) {
-            const float v = px[p * nc + size_t(std::min(c, nc - 1))];
-            if (!std::isfinite(v) || v < 0)
-                throw scenes::SceneError(path + ": environment map has a negative or non-finite pixel at (" +
-                                         std::to_string(p % t.width) + ", " + std::to_string(p / t.width) + ")");
-            t.rgb[p * 3 + size_t(c)] = v;
-        }
-    return t;
-}
 
 EnvironmentMap::EnvironmentMap(const scenes::Texture& image, const Vec3f& up, const Vec3f& scale)
     : w_(image.width), h_(image.height), rgb_(image.rgb), scale_(scale) {

@@ -15,9 +15,8 @@ namespace renderer {
 
 using accel::Vec3f;
 
-/// Reads an EXR/HDR (anything OpenImageIO reads) as linear float RGB. Throws
-/// scenes::SceneError naming the file when it cannot be read or is not an image.
-scenes::Texture load_environment_image(const std::string& path);
+/// Reading the image (-e FILE) is load_environment_image, in renderer/image.h: file I/O
+/// lives in the renderer_image library.
 
 class EnvironmentMap {
 public:

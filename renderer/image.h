@@ -4,6 +4,8 @@
 #include <string>
 #include <vector>
 
+#include "scenes/scene.h"
+
 namespace renderer {
 
 /// Interleaved float image; channel names follow EXR conventions ("R","G","B",
@@ -50,5 +52,10 @@ Image heat_map(const std::vector<float>& values, int width, int height, float lo
 
 /// True for extensions that hold float channels (EXR).
 bool is_float_format(const std::string& path);
+
+/// Reads a latitude-longitude environment map (EXR/HDR, anything OpenImageIO reads) as
+/// linear float RGB for renderer::EnvironmentMap. Throws scenes::SceneError naming the
+/// file when it cannot be read, is not an image, or has a negative or non-finite pixel.
+scenes::Texture load_environment_image(const std::string& path);
 
 }  // namespace renderer

@@ -22,7 +22,9 @@ const char* verdict_name(Verdict v) {
 std::vector<RayOutcome> trace_set(const accel::Accelerator& accel, const RaySet& set,
                                   accel::TraceStats& stats, bool closest_for_shadow) {
     std::vector<RayOutcome> out(set.rays.size());
-    tbb::enumerable_thread_specific<accel::TraceStats> local;
+    accel::TraceStats proto;
+    proto.counting = stats.counting;  // uncounted traces run the backend's lean path
+    tbb::enumerable_thread_specific<accel::TraceStats> local(proto);
     const bool any_hit = set.occlusion() && !closest_for_shadow;
     tbb::parallel_for(tbb::blocked_range<size_t>(0, set.rays.size(), 1024),
                       [&](const tbb::blocked_range<size_t>& r) {

@@ -14,6 +14,7 @@
 #include <thread>
 
 #include "accel/accelerator.h"
+#include "accel/bvh/bvh.h"
 #include "renderer/camera.h"
 #include "renderer/checkpoint.h"
 #include "renderer/envmap.h"
@@ -103,7 +104,7 @@ int main(int argc, char** argv) {
     renderer::RenderSettings rs;
     renderer::IntegratorSettings is;
     accel::AccelOptions ao;
-    std::string backend = "custom", bvh = "sah", tri = "fast", quality = "high", camera_mode = "auto";
+    std::string backend = "custom", bvh = "sah", tri = "fast", quality = "high", camera_mode = "auto", isa = "auto";
     std::string output;
     std::vector<int> resolution, cell;
     std::vector<float> adaptive;
@@ -149,6 +150,8 @@ int main(int argc, char** argv) {
         ->check(CLI::IsMember({"fast", "watertight"}));
     app.add_option("--embree-quality", quality, "Embree build quality: low | medium | high")
         ->check(CLI::IsMember({"low", "medium", "high"}));
+    app.add_option("--isa", isa, "Custom BVH kernel: auto (by CPUID) | sse2 | avx2 | avx512")
+        ->check(CLI::IsMember({"auto", "sse2", "avx2", "avx512"}));
     app.add_flag("--embree-robust", ao.embree_robust, "Embree robust traversal mode");
     app.add_flag("--embree-count", ao.embree_count,
                  "Embree counting mode: triangles through our intersector, so tests per ray are counted");
@@ -233,6 +236,7 @@ int main(int argc, char** argv) {
     is.offset = offset == "epsilon" ? renderer::OffsetMode::Epsilon : renderer::OffsetMode::ErrorBound;
     ao.split = bvh == "midpoint" ? accel::BvhSplit::Midpoint : accel::BvhSplit::Sah;
     ao.triangle = tri == "watertight" ? accel::TriangleTest::Watertight : accel::TriangleTest::Fast;
+    accel::parse_isa(isa, ao.isa);
     ao.embree_quality = quality == "low"      ? accel::EmbreeQuality::Low
                         : quality == "medium" ? accel::EmbreeQuality::Medium
                                               : accel::EmbreeQuality::High;

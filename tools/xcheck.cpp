@@ -8,6 +8,7 @@
 #include <map>
 #include <sstream>
 
+#include "accel/bvh/bvh.h"
 #include "renderer/backend_spec.h"
 #include "renderer/raysets.h"
 #include "renderer/scene_geometry.h"
@@ -83,6 +84,9 @@ int main(int argc, char** argv) {
     app.add_option("--kinds", kinds_arg, "Comma-separated ray kinds (default: all): camera,random,"
                                          "edge-vertex,grazing,shadow,diffuse");
     app.add_option("--seed", seed, "Seed of the ray sets");
+    std::string isa_arg = "auto";
+    app.add_option("--isa", isa_arg, "Kernel of custom backends that name none: auto | sse2 | avx2 | avx512")
+        ->check(CLI::IsMember({"auto", "sse2", "avx2", "avx512"}));
     app.add_option("--dump", dump_path, "Write the disagreeing rays to FILE (replayable)");
     app.add_option("--replay", replay_path, "Trace the rays of FILE (from --dump) instead of generating rays")
         ->check(CLI::ExistingFile);
@@ -107,7 +111,11 @@ int main(int argc, char** argv) {
             if (have_embree) list += ",embree:high";
             if (small) list += ",naive:fast";
         }
-        for (auto& s : renderer::parse_backend_specs(list))
+        accel::Isa isa = accel::Isa::Auto;
+        accel::parse_isa(isa_arg, isa);
+        std::vector<renderer::BackendSpec> all = renderer::parse_backend_specs(list);
+        renderer::apply_isa(all, isa);
+        for (auto& s : all)
             if (s.label != ref.label) specs.push_back(s);
     } catch (const std::invalid_argument& e) {
         fail(e.what());

@@ -9,14 +9,27 @@
 #include "accel/accelerator.h"
 
 namespace accel {
-/// Our own BVH ("custom"): midpoint or binned-SAH build into flat 32-byte binary nodes,
-/// traced through an 8-wide SSE2 collapse of that tree. Statistics per query:
-/// ++rays (intersect) or ++shadow_rays (occluded); nodes_visited = ray-box tests (the
-/// scene box once, then the real children of every wide node processed); prim_tests =
-/// calls of the shared primitive intersector. BuildInfo::sah_cost is the binary tree's
-/// SAH cost with C_trav = C_isect = 1 (see tree_facts in bvh.cpp).
+/// Our own BVH ("custom"): midpoint or binned-SAH build into a binary tree (build.h),
+/// collapsed into 8-wide nodes with SoA leaf blocks of four primitives (wide.h), traced
+/// by a kernel compiled per instruction set and picked at run time (kernel.h,
+/// dispatch.h). Statistics per query: ++rays (intersect) or ++shadow_rays (occluded);
+/// when TraceStats::counting, nodes_visited = 1 for the scene box + 1 per wide node
+/// whose children are tested, prim_tests = filled lanes of the leaf blocks tested.
+/// BuildInfo::sah_cost is the binary tree's SAH cost with C_trav = 1 and C_isect = 1
+/// per leaf block of four (tree_facts in build.h).
 std::unique_ptr<Accelerator> make_bvh(std::span<const GeometryView> geometry,
                                       const AccelOptions& options);
+
+/// "sse2", "avx2", "avx512" ("auto" for Auto).
+const char* isa_name(Isa isa);
+/// Parses auto|sse2|avx2|avx512; false for anything else.
+bool parse_isa(const std::string& s, Isa& out);
+/// True if this CPU (and OS) can run the kernel for `isa`.
+bool cpu_has(Isa isa);
+/// The kernel Auto picks on this CPU; any other value is returned unchanged.
+Isa resolve_isa(Isa isa);
+/// Kernels compiled in that this CPU can run, narrowest first.
+std::vector<Isa> supported_isas();
 
 /// Structural facts about a custom BVH, recomputed from the built tree (not from
 /// BuildInfo), so tests can check the build instead of trusting it.
@@ -25,16 +38,18 @@ struct BvhReport {
     uint32_t depth = 0;          ///< nodes on the longest root-to-leaf path (root only = 1)
     uint32_t max_leaf_size = 0;  ///< largest leaf
     uint32_t leaf_size_limit = 0;///< AccelOptions::leaf_size the tree was built with
-    /// Standard SAH cost recomputed from the nodes, C_trav = C_isect = 1 (see bvh.cpp).
+    /// SAH cost recomputed from the nodes, leaves priced per block (tree_facts, build.h).
     double sah_cost = 0.0;
     bool prims_once = true;          ///< every collected primitive in exactly one leaf
     bool children_inside = true;     ///< every child's box inside its parent's box
     bool leaves_contain_prims = true;///< every leaf box contains its primitives' boxes
     bool leaf_size_ok = true;        ///< no leaf above the limit, no empty leaf
-    bool gathered_ok = true;         ///< pre-gathered leaf vertices equal the scene's
+    bool gathered_ok = true;         ///< leaf blocks hold the scene's vertices (or exact edges)
     bool siblings_adjacent = true;   ///< children of a node are consecutive and after it
     /// The 8-wide tree traversal actually uses (collapsed from the binary one) covers
     /// every primitive once, with nested, containing boxes.
+    uint64_t wide_nodes = 0, blocks = 0;
+    double filled_lanes = 0;         ///< primitives / (4 * blocks)
     bool wide_ok = true;
     std::vector<std::string> errors; ///< first few violations, human readable
 

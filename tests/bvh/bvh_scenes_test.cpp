@@ -143,8 +143,12 @@ TEST_P(BvhScenes, AgreesWithNaive) {
         std::vector<char> ref_hit(rays.size());
         TraceStats s1;
         for (size_t i = 0; i < rays.size(); ++i) ref_hit[i] = naive->intersect(rays[i], ref[i], s1);
-        for (BvhSplit split : {BvhSplit::Sah, BvhSplit::Midpoint}) {
-            auto bvh = make_bvh(l->views(), options(split, test));
+        for (BvhSplit split : {BvhSplit::Sah, BvhSplit::Midpoint})
+          for (Isa isa : supported_isas()) {  // every kernel this CPU runs (bvh_test names the rest)
+            AccelOptions o = options(split, test);
+            o.isa = isa;
+            auto bvh = make_bvh(l->views(), o);
+            SCOPED_TRACE(isa_name(isa));
             int mismatch = 0, ties = 0, hits = 0;
             TraceStats s2;
             for (size_t i = 0; i < rays.size(); ++i) {

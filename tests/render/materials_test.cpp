@@ -9,6 +9,7 @@
 #include "renderer/backend_spec.h"
 #include "renderer/camera.h"
 #include "renderer/envmap.h"
+#include "renderer/image.h"
 #include "renderer/integrators/path.h"
 #include "renderer/lights.h"
 #include "renderer/scene_geometry.h"

@@ -1,0 +1,37 @@
+// The data every kernel traverses, built once by baseline code (bvh.cpp). Kernels
+// derive from BvhBase in their own ISA's translation unit.
+#pragma once
+
+#include <memory>
+#include <vector>
+
+#include "accel/accelerator.h"
+#include "accel/bvh/build.h"
+#include "accel/bvh/wide.h"
+
+namespace accel::bvh {
+
+/// Everything here that the compiler could emit out of line (constructor, destructor,
+/// vtable, finishing a hit) is defined in bvh.cpp, compiled for baseline x86-64: were
+/// it inline, an AVX2 kernel file could supply the one copy the linker keeps, and a
+/// CPU without AVX2 would fault in code that never meant to use it.
+class BvhBase : public Accelerator {
+public:
+    BvhBase();
+    ~BvhBase() override;
+    const BuildInfo& info() const override;
+    Bounds3f bounds() const override;
+
+    void build(std::span<const GeometryView> geometry, const AccelOptions& opt, const char* kernel);
+    /// Fills hit for leaf-order slot `slot` found at (t, u, v).
+    void finish(uint32_t slot, const Ray& ray, float t, float u, float v, Hit& hit) const;
+
+    std::vector<GeometryView> geometry_;
+    BinaryTree tree_;  ///< the build output; tree_.order maps slots to primitives
+    WideBvh wide_;     ///< what traversal reads
+    bool has_spheres_ = false;
+    uint32_t leaf_size_ = 4;
+    BuildInfo info_;
+};
+
+}  // namespace accel::bvh

@@ -1,0 +1,58 @@
+// The binary builders: binned SAH (Wald 2007) and the course's midpoint split. They
+// produce a flat binary tree; wide.h collapses it into the traversal layout.
+#pragma once
+
+#include <cstdint>
+#include <span>
+#include <vector>
+
+#include "accel/accelerator.h"
+#include "accel/primitive.h"
+
+namespace accel::bvh {
+
+/// 32 bytes, depth-first, siblings adjacent. The build output and what inspect_bvh and
+/// the reported SAH cost describe; traversal never reads it.
+struct alignas(32) Node {
+    float b[6];         ///< lo.x lo.y lo.z hi.x hi.y hi.z
+    uint32_t offset;    ///< leaf: first slot in leaf order; interior: left child (right = +1)
+    uint32_t meta;      ///< leaf: primitive count (> 0); interior: 0 | split axis << 30
+
+    static constexpr uint32_t kCountMask = (1u << 30) - 1;
+    bool is_leaf() const { return (meta & kCountMask) != 0; }
+    uint32_t count() const { return meta & kCountMask; }
+    Bounds3f bounds() const { return {{b[0], b[1], b[2]}, {b[3], b[4], b[5]}}; }
+};
+static_assert(sizeof(Node) == 32);
+
+/// Leaves are priced in blocks of this many primitives: the leaf kernel tests four
+/// triangles in one SIMD Möller–Trumbore or Woop test, so 1..4 triangles cost the same.
+constexpr uint32_t kLeafBlock = 4;
+
+/// Traversal stack bound: the build switches to object-median splits below
+/// kMaxFreeDepth, so no tree is deeper than kMaxFreeDepth + 32 < kStackSize.
+constexpr uint32_t kStackSize = 128;
+
+struct BinaryTree {
+    std::vector<Node> nodes;
+    std::vector<PrimRef> order;  ///< primitives in leaf order (Node::offset indexes it)
+};
+
+/// Builds over the collected primitives `refs`. Leaves hold one geometry type only
+/// (triangles or spheres), so every leaf maps to one kind of SIMD block.
+BinaryTree build_binary(std::span<const GeometryView> geometry, const std::vector<PrimRef>& refs,
+                        BvhSplit split, uint32_t leaf_size, int threads);
+
+struct TreeFacts {
+    uint64_t leaves = 0;
+    uint32_t depth = 0;
+    uint32_t max_leaf = 0;
+    double sah_cost = 0.0;
+};
+
+/// SAH cost (Goldsmith & Salmon 1987; MacDonald & Booth 1990) with C_trav = 1 and
+/// C_isect = 1 per leaf block of kLeafBlock primitives (what the SIMD leaf test pays):
+/// expected binary node visits plus block tests of a random ray that hits the root box.
+TreeFacts tree_facts(const std::vector<Node>& nodes);
+
+}  // namespace accel::bvh

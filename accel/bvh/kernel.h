@@ -1,0 +1,388 @@
+// The traversal kernel: one template over a SIMD policy, instantiated once per
+// instruction set by kernel_sse2.cpp, kernel_avx2.cpp and kernel_avx512.cpp, each compiled
+// with its own flags (STYLE.md section 9; Embree's per-ISA kernels, Wald et al. 2014).
+// Everything lives in the namespace PT_KERNEL_NS the including file names, so no inline
+// function instantiated here can be shared with (and picked by the linker for) another ISA.
+//
+// Algorithms: the slab test with per-ray near/far planes chosen by the direction's sign
+// bits (Williams, Barrus, Morley, Shirley 2005, "An Efficient and Robust Ray-Box
+// Intersection Algorithm"), made conservative by scaling the far distance (Ize 2013,
+// "Robust BVH Ray Traversal", JCGT 2(2)); ordered traversal of wide nodes with a no-stack
+// path for one hit child and stack entries beyond the closest hit dropped on pop (Wald et
+// al. 2008, "Getting Rid of Packets"); leaf blocks tested four at a time by Möller–Trumbore
+// 1997 or the watertight test of Woop, Benthin, Wald 2013 (JCGT 2(1)).
+#pragma once
+
+#ifndef PT_KERNEL_NS
+#error "kernel.h is included by one kernel_ISA.cpp that defines PT_KERNEL_NS"
+#endif
+
+#include <emmintrin.h>
+#ifdef __AVX__
+#include <immintrin.h>
+#endif
+
+#include <cmath>
+#include <utility>
+#include <limits>
+
+#include "accel/bvh/base.h"
+#include "accel/sphere.h"
+#include "accel/triangle.h"
+
+namespace accel::bvh::PT_KERNEL_NS {
+
+/// gamma(n) = n*u / (1 - n*u), u = 2^-24 (pbrt's notation). Scaling the far slab
+/// distance by 1 + 2*gamma(3) keeps boxes a rounding error would cull (Ize 2013).
+constexpr float kUnitRoundoff = std::numeric_limits<float>::epsilon() * 0.5f;
+constexpr float gamma_n(int n) { return (n * kUnitRoundoff) / (1 - n * kUnitRoundoff); }
+constexpr float kFarScale = 1.0f + 2.0f * gamma_n(3);
+
+
+/// Per-ray slab constants: inverse direction, and for each axis which row of the box is
+/// the near plane, picked by the sign bit so that -0 behaves like a negative direction.
+/// This specialises every box test to the ray's octant without a branch.
+struct Planes {
+    float org[3], inv[3];
+    int near[3], far[3];
+    explicit Planes(const Ray& r) {
+        for (int a = 0; a < 3; ++a) {
+            org[a] = r.org[a];
+            inv[a] = 1.0f / r.dir[a];
+            const bool neg = std::signbit(r.dir[a]);
+            near[a] = neg ? a + 3 : a;
+            far[a] = neg ? a : a + 3;
+        }
+    }
+    /// Scalar test of one box: the scene box, once per ray. NaN slab distances (a zero
+    /// direction with the origin on the plane) are ignored, as by the SIMD min/max.
+    bool hit(const float* b, float t_min, float t_max) const {
+        float t0 = t_min, t1 = kInfinity;
+        for (int a = 0; a < 3; ++a) {
+            const float tn = (b[near[a]] - org[a]) * inv[a], tf = (b[far[a]] - org[a]) * inv[a];
+            t0 = tn > t0 ? tn : t0;
+            t1 = tf < t1 ? tf : t1;
+        }
+        return t0 <= std::min(t1, t_max) * kFarScale;
+    }
+};
+
+/// Broadcast of one float to every lane of V (kernel files add their wider types).
+template <class V>
+V splat(float x);
+template <>
+inline __m128 splat<__m128>(float x) { return _mm_set1_ps(x); }
+#ifdef __AVX__  // only the files compiled with -mavx2 or wider see 256-bit vectors
+template <>
+inline __m256 splat<__m256>(float x) { return _mm256_set1_ps(x); }
+#endif
+
+/// Per-ray constants of a node test over vectors V: origin, inverse direction, the
+/// accumulators' start values and the near/far rows of Planes.
+template <class V>
+struct BoxConstants {
+    V o[3], inv[3], t_min, inf, scale;
+    int nx, ny, nz, fx, fy, fz;
+    BoxConstants(const Planes& p, float tmin) {
+        for (int a = 0; a < 3; ++a) o[a] = splat<V>(p.org[a]), inv[a] = splat<V>(p.inv[a]);
+        t_min = splat<V>(tmin), inf = splat<V>(kInfinity), scale = splat<V>(kFarScale);
+        nx = p.near[0], ny = p.near[1], nz = p.near[2], fx = p.far[0], fy = p.far[1], fz = p.far[2];
+    }
+};
+
+/// Four-lane leaf test. SSE2 is part of every x86-64, so all ISAs share this code (the
+/// wider files just encode it with VEX); -ffp-contract=off on every kernel file keeps
+/// the arithmetic that of triangle.h, so all ISAs and naive return the same t, u, v.
+struct LeafRay {
+    __m128 o[3], d[3], t_min;
+    int kx, ky, kz;
+    __m128 sx, sy, sz;
+    LeafRay(const Ray& r, const WatertightRay& wr) {
+        for (int a = 0; a < 3; ++a) o[a] = _mm_set1_ps(r.org[a]), d[a] = _mm_set1_ps(r.dir[a]);
+        t_min = _mm_set1_ps(r.t_min);
+        kx = wr.kx, ky = wr.ky, kz = wr.kz;
+        sx = _mm_set1_ps(wr.sx), sy = _mm_set1_ps(wr.sy), sz = _mm_set1_ps(wr.sz);
+    }
+};
+
+inline __m128 ld(const float* p) { return _mm_load_ps(p); }
+
+/// Lanes that hold a primitive.
+inline unsigned filled(const Block& b) {
+    const __m128i none = _mm_set1_epi32(-1);
+    const __m128i s = _mm_load_si128(reinterpret_cast<const __m128i*>(b.slot));
+    return unsigned(_mm_movemask_ps(_mm_castsi128_ps(_mm_cmpeq_epi32(s, none)))) ^ 0xFu;
+}
+
+/// Möller–Trumbore on four triangles with precomputed edges; the same operations, in
+/// the same order, as intersect_triangle_mt. Returns the mask of lanes hit in [t_min, t].
+inline unsigned tri4_mt(const Block& b, const LeafRay& r, float t_max, float* tt, float* uu, float* vv) {
+    const __m128 e1x = ld(b.p[1][0]), e1y = ld(b.p[1][1]), e1z = ld(b.p[1][2]);
+    const __m128 e2x = ld(b.p[2][0]), e2y = ld(b.p[2][1]), e2z = ld(b.p[2][2]);
+    const __m128 dx = r.d[0], dy = r.d[1], dz = r.d[2];
+    const __m128 px = _mm_sub_ps(_mm_mul_ps(dy, e2z), _mm_mul_ps(dz, e2y));
+    const __m128 py = _mm_sub_ps(_mm_mul_ps(dz, e2x), _mm_mul_ps(dx, e2z));
+    const __m128 pz = _mm_sub_ps(_mm_mul_ps(dx, e2y), _mm_mul_ps(dy, e2x));
+    const __m128 det = _mm_add_ps(_mm_add_ps(_mm_mul_ps(e1x, px), _mm_mul_ps(e1y, py)), _mm_mul_ps(e1z, pz));
+    const __m128 inv = _mm_div_ps(_mm_set1_ps(1.0f), det);
+    const __m128 sx = _mm_sub_ps(r.o[0], ld(b.p[0][0])), sy = _mm_sub_ps(r.o[1], ld(b.p[0][1])),
+                 sz = _mm_sub_ps(r.o[2], ld(b.p[0][2]));
+    const __m128 u = _mm_mul_ps(
+        _mm_add_ps(_mm_add_ps(_mm_mul_ps(sx, px), _mm_mul_ps(sy, py)), _mm_mul_ps(sz, pz)), inv);
+    const __m128 qx = _mm_sub_ps(_mm_mul_ps(sy, e1z), _mm_mul_ps(sz, e1y));
+    const __m128 qy = _mm_sub_ps(_mm_mul_ps(sz, e1x), _mm_mul_ps(sx, e1z));
+    const __m128 qz = _mm_sub_ps(_mm_mul_ps(sx, e1y), _mm_mul_ps(sy, e1x));
+    const __m128 v = _mm_mul_ps(
+        _mm_add_ps(_mm_add_ps(_mm_mul_ps(dx, qx), _mm_mul_ps(dy, qy)), _mm_mul_ps(dz, qz)), inv);
+    const __m128 t = _mm_mul_ps(
+        _mm_add_ps(_mm_add_ps(_mm_mul_ps(e2x, qx), _mm_mul_ps(e2y, qy)), _mm_mul_ps(e2z, qz)), inv);
+    const __m128 zero = _mm_setzero_ps(), one = _mm_set1_ps(1.0f);
+    // Ordered comparisons fail on NaN, as the scalar test's do.
+    __m128 ok = _mm_cmpneq_ps(det, zero);
+    ok = _mm_and_ps(ok, _mm_and_ps(_mm_cmpge_ps(u, zero), _mm_cmple_ps(u, one)));
+    ok = _mm_and_ps(ok, _mm_and_ps(_mm_cmpge_ps(v, zero), _mm_cmple_ps(_mm_add_ps(u, v), one)));
+    ok = _mm_and_ps(ok, _mm_and_ps(_mm_cmpge_ps(t, r.t_min), _mm_cmple_ps(t, _mm_set1_ps(t_max))));
+    const unsigned mask = unsigned(_mm_movemask_ps(ok)) & filled(b);
+    if (mask) _mm_storeu_ps(tt, t), _mm_storeu_ps(uu, u), _mm_storeu_ps(vv, v);
+    return mask;
+}
+
+/// Woop 2013 on four triangles; the same operations as intersect_triangle_wt, including
+/// its double-precision retry of an edge function that rounds to exactly zero (done per
+/// lane, only for the rare lanes that need it).
+inline unsigned tri4_wt(const Block& b, const LeafRay& r, float t_max, float* tt, float* uu, float* vv) {
+    __m128 X[3], Y[3], Z[3];
+    for (int k = 0; k < 3; ++k) {
+        const __m128 ax = _mm_sub_ps(ld(b.p[k][r.kx]), r.o[r.kx]);
+        const __m128 ay = _mm_sub_ps(ld(b.p[k][r.ky]), r.o[r.ky]);
+        const __m128 az = _mm_sub_ps(ld(b.p[k][r.kz]), r.o[r.kz]);
+        X[k] = _mm_sub_ps(ax, _mm_mul_ps(r.sx, az));
+        Y[k] = _mm_sub_ps(ay, _mm_mul_ps(r.sy, az));
+        Z[k] = az;
+    }
+    // A = vertex 0, B = vertex 1, C = vertex 2.
+    __m128 U = _mm_sub_ps(_mm_mul_ps(X[2], Y[1]), _mm_mul_ps(Y[2], X[1]));
+    __m128 V = _mm_sub_ps(_mm_mul_ps(X[0], Y[2]), _mm_mul_ps(Y[0], X[2]));
+    __m128 W = _mm_sub_ps(_mm_mul_ps(X[1], Y[0]), _mm_mul_ps(Y[1], X[0]));
+    const __m128 zero = _mm_setzero_ps();
+    const unsigned live = filled(b);
+    const unsigned zeros = unsigned(_mm_movemask_ps(_mm_or_ps(
+                               _mm_or_ps(_mm_cmpeq_ps(U, zero), _mm_cmpeq_ps(V, zero)), _mm_cmpeq_ps(W, zero)))) &
+                           live;
+    if (zeros) {
+        alignas(16) float x[3][4], y[3][4], fu[4], fv[4], fw[4];
+        for (int k = 0; k < 3; ++k) _mm_store_ps(x[k], X[k]), _mm_store_ps(y[k], Y[k]);
+        _mm_store_ps(fu, U), _mm_store_ps(fv, V), _mm_store_ps(fw, W);
+        for (int l = 0; l < 4; ++l) {
+            if (!(zeros >> l & 1)) continue;
+            fu[l] = float(double(x[2][l]) * double(y[1][l]) - double(y[2][l]) * double(x[1][l]));
+            fv[l] = float(double(x[0][l]) * double(y[2][l]) - double(y[0][l]) * double(x[2][l]));
+            fw[l] = float(double(x[1][l]) * double(y[0][l]) - double(y[1][l]) * double(x[0][l]));
+        }
+        U = _mm_load_ps(fu), V = _mm_load_ps(fv), W = _mm_load_ps(fw);
+    }
+    const __m128 neg = _mm_or_ps(_mm_or_ps(_mm_cmplt_ps(U, zero), _mm_cmplt_ps(V, zero)), _mm_cmplt_ps(W, zero));
+    const __m128 pos = _mm_or_ps(_mm_or_ps(_mm_cmpgt_ps(U, zero), _mm_cmpgt_ps(V, zero)), _mm_cmpgt_ps(W, zero));
+    const __m128 det = _mm_add_ps(_mm_add_ps(U, V), W);
+    const __m128 T = _mm_add_ps(_mm_add_ps(_mm_mul_ps(U, _mm_mul_ps(r.sz, Z[0])), _mm_mul_ps(V, _mm_mul_ps(r.sz, Z[1]))),
+                                _mm_mul_ps(W, _mm_mul_ps(r.sz, Z[2])));
+    const __m128 inv = _mm_div_ps(_mm_set1_ps(1.0f), det);
+    const __m128 t = _mm_mul_ps(T, inv);
+    __m128 ok = _mm_andnot_ps(_mm_and_ps(neg, pos), _mm_cmpneq_ps(det, zero));
+    ok = _mm_and_ps(ok, _mm_and_ps(_mm_cmpge_ps(t, r.t_min), _mm_cmple_ps(t, _mm_set1_ps(t_max))));
+    const unsigned mask = unsigned(_mm_movemask_ps(ok)) & live;
+    if (mask) {
+        _mm_storeu_ps(tt, t);
+        _mm_storeu_ps(uu, _mm_mul_ps(V, inv));
+        _mm_storeu_ps(vv, _mm_mul_ps(W, inv));
+    }
+    return mask;
+}
+
+/// Returns the leaf-order slot of the closest (AnyHit: some) primitive hit in
+/// [ray.t_min, t], or Block::kNone, shrinking t as hits are found.
+///
+/// Counting (only when Count; the timed path is its own instantiation and counts
+/// nothing): nodes_visited = 1 for the scene box + 1 per wide node whose child boxes
+/// are tested; prim_tests = filled lanes of every leaf block tested.
+template <class P, TriangleTest Test, bool AnyHit, bool Count, bool HasSpheres>
+uint32_t traverse(const WideBvh& w, const Ray& ray_in, float& t_io, float& u_out, float& v_out,
+                  TraceStats& stats) {
+    if (w.nodes.empty()) return Block::kNone;
+    // Local copies: through references every store to t could alias the ray and the
+    // node data (all floats), forcing reloads in the innermost loop.
+    const Ray ray = ray_in;
+    float t = t_io, u = 0.0f, v = 0.0f;
+    uint64_t boxes = 1, tests = 0;
+    uint32_t found = Block::kNone;
+    const auto finish = [&]() {
+        if constexpr (Count) stats.nodes_visited += boxes, stats.prim_tests += tests;
+        if (found != Block::kNone) t_io = t, u_out = u, v_out = v;
+        return found;
+    };
+    const Planes pl(ray);
+    // The scene box first, in scalar: it turns away every ray that misses the scene
+    // (most camera rays around a lone object) before any SIMD setup.
+    if (!pl.hit(w.root, ray.t_min, t)) return finish();
+    const WatertightRay wr = Test == TriangleTest::Watertight ? WatertightRay(ray.dir) : WatertightRay();
+    const LeafRay lr(ray, wr);
+    const typename P::Box box(pl, ray.t_min);
+    const WideNode* nodes = w.nodes.data();
+    const Block* blocks = w.blocks.data();
+
+    struct Entry {
+        uint32_t ref, count;
+        float t;
+    };
+    // Each wide level pushes at most kWidth - 1 entries and is no deeper than the
+    // binary tree, whose depth the build bounds by kStackSize.
+    Entry stack[(kWidth - 1) * kStackSize];
+    uint32_t sp = 0;
+    uint32_t ref = 0, count = 0;  // the root WideNode (interior)
+    for (;;) {
+        if (ref & WideNode::kLeaf) {
+            const Block* b = blocks + (ref & ~WideNode::kLeaf);
+            const Block* end = b + (count & ~WideNode::kSpheres);
+            for (; b != end; ++b) {
+                if constexpr (Count) tests += unsigned(__builtin_popcount(filled(*b)));
+                if (HasSpheres && (count & WideNode::kSpheres)) {
+                    for (int l = 0; l < 4 && b->slot[l] != Block::kNone; ++l) {
+                        float ts;
+                        const Vec3f c(b->p[0][0][l], b->p[0][1][l], b->p[0][2][l]);
+                        if (intersect_sphere(ray, c, b->p[1][0][l], t, ts)) {
+                            t = ts, u = v = 0.0f, found = b->slot[l];
+                            if constexpr (AnyHit) return finish();
+                        }
+                    }
+                    continue;
+                }
+                alignas(16) float tt[4], uu[4], vv[4];
+                unsigned hit = Test == TriangleTest::Watertight ? tri4_wt(*b, lr, t, tt, uu, vv)
+                                                                : tri4_mt(*b, lr, t, tt, uu, vv);
+                if (!hit) continue;
+                if constexpr (AnyHit) {
+                    const int l = __builtin_ctz(hit);
+                    t = tt[l], u = uu[l], v = vv[l], found = b->slot[l];
+                    return finish();
+                }
+                // In lane order, each lane accepted if not beyond the best so far: what
+                // the scalar loop over the same triangles would keep.
+                do {
+                    const int l = __builtin_ctz(hit);
+                    hit &= hit - 1;
+                    if (tt[l] <= t) t = tt[l], u = uu[l], v = vv[l], found = b->slot[l];
+                } while (hit);
+            }
+        } else {
+            const WideNode& n = nodes[ref];
+            if constexpr (Count) ++boxes;
+            alignas(32) float dist[kWidth];
+            unsigned mask = P::test(n, box, t, dist);
+            if (mask) {
+                int i = __builtin_ctz(mask);
+                mask &= mask - 1;
+                if (!mask) {  // one child hit: no stack traffic at all
+                    ref = n.child[i];
+                    count = n.count[i];
+                    continue;
+                }
+                if constexpr (AnyHit) {
+                    // Any hit ends the query: enter the nearest child (most likely to
+                    // hold the occluder), push the rest unsorted (sorting measured slower).
+                    uint32_t best = sp;
+                    stack[sp++] = {n.child[i], n.count[i], dist[i]};
+                    do {
+                        i = __builtin_ctz(mask);
+                        mask &= mask - 1;
+                        if (dist[i] < stack[best].t) best = sp;
+                        stack[sp++] = {n.child[i], n.count[i], dist[i]};
+                    } while (mask);
+                    // Swap the nearest to the top, then pop it.
+                    std::swap(stack[best], stack[sp - 1]);
+                    --sp;
+                    ref = stack[sp].ref;
+                    count = stack[sp].count;
+                    continue;
+                }
+                int j = __builtin_ctz(mask);
+                mask &= mask - 1;
+                if (!mask) {  // two children, the most common case: order them by select
+                    const bool swap = dist[j] < dist[i];
+                    const int nearc = swap ? j : i, farc = swap ? i : j;
+                    stack[sp++] = {n.child[farc], n.count[farc], dist[farc]};
+                    ref = n.child[nearc];
+                    count = n.count[nearc];
+                    continue;
+                }
+                // Three or more: insertion sort into the stack top, farthest deepest, so
+                // the nearest is visited next and the others are likely culled on pop.
+                const uint32_t base = sp;
+                mask |= 1u << j;
+                for (;;) {
+                    const Entry e{n.child[i], n.count[i], dist[i]};
+                    uint32_t k = sp++;
+                    while (k > base && stack[k - 1].t < e.t) {
+                        stack[k] = stack[k - 1];
+                        --k;
+                    }
+                    stack[k] = e;
+                    if (!mask) break;
+                    i = __builtin_ctz(mask);
+                    mask &= mask - 1;
+                }
+                const Entry& nearest = stack[--sp];
+                ref = nearest.ref;
+                count = nearest.count;
+                continue;
+            }
+        }
+        // Pop the next subtree whose box entry is not beyond the closest hit.
+        for (;;) {
+            if (sp == 0) return finish();
+            const Entry& e = stack[--sp];
+            if (e.t <= t * kFarScale) {  // the box test's own tolerance
+                ref = e.ref;
+                count = e.count;
+                break;
+            }
+        }
+    }
+}
+
+/// The accelerator for one ISA and triangle test; intersect/occluded are the only
+/// virtual calls. The counting instantiation runs only when the caller asks for counts.
+template <class P, TriangleTest Test>
+class Kernel final : public BvhBase {
+public:
+    bool intersect(const Ray& ray, Hit& hit, TraceStats& stats) const override {
+        ++stats.rays;
+        float t = ray.t_max, u = 0, v = 0;
+        const uint32_t slot = run<false>(ray, t, u, v, stats);
+        if (slot == Block::kNone) return false;
+        finish(slot, ray, t, u, v, hit);
+        return true;
+    }
+    bool occluded(const Ray& ray, TraceStats& stats) const override {
+        ++stats.shadow_rays;
+        float t = ray.t_max, u, v;
+        return run<true>(ray, t, u, v, stats) != Block::kNone;
+    }
+
+private:
+    template <bool AnyHit>
+    uint32_t run(const Ray& ray, float& t, float& u, float& v, TraceStats& stats) const {
+        if (stats.counting)
+            return has_spheres_ ? traverse<P, Test, AnyHit, true, true>(wide_, ray, t, u, v, stats)
+                                : traverse<P, Test, AnyHit, true, false>(wide_, ray, t, u, v, stats);
+        return has_spheres_ ? traverse<P, Test, AnyHit, false, true>(wide_, ray, t, u, v, stats)
+                            : traverse<P, Test, AnyHit, false, false>(wide_, ray, t, u, v, stats);
+    }
+};
+
+template <class P>
+std::unique_ptr<BvhBase> make_kernel(TriangleTest test) {
+    if (test == TriangleTest::Watertight) return std::make_unique<Kernel<P, TriangleTest::Watertight>>();
+    return std::make_unique<Kernel<P, TriangleTest::Fast>>();
+}
+
+}  // namespace accel::bvh::PT_KERNEL_NS

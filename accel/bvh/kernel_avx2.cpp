@@ -1,0 +1,20 @@
+// The AVX2 kernel: one 8-lane slab test per 256-byte node. Compiled with -mavx2 -mfma
+// -ffp-contract=off (accel/CMakeLists.txt); chosen at run time only on CPUs with both.
+#define PT_KERNEL_NS avx2
+#include <immintrin.h>
+
+#include "accel/bvh/kernel.h"
+#include "accel/bvh/dispatch.h"
+
+namespace accel::bvh::avx2 {
+namespace {
+
+#define PT_NODE8_MASK(t0, t1) unsigned(_mm256_movemask_ps(_mm256_cmp_ps(t0, t1, _CMP_LE_OQ)))
+#include "accel/bvh/node8.h"
+
+}  // namespace
+}  // namespace accel::bvh::avx2
+
+namespace accel::bvh {
+std::unique_ptr<BvhBase> make_kernel_avx2(TriangleTest test) { return avx2::make_kernel<avx2::Node8>(test); }
+}  // namespace accel::bvh

@@ -1,0 +1,21 @@
+// The AVX-512 kernel (F + VL + DQ + BW): the same 8-lane node test, compared into a mask
+// register. Compiled with -mavx512f -mavx512vl -mavx512dq -mavx512bw -mfma -ffp-contract=off
+// (accel/CMakeLists.txt); auto picks it only where it measured faster than AVX2 (dispatch.cpp).
+#define PT_KERNEL_NS avx512
+#include <immintrin.h>
+
+#include "accel/bvh/kernel.h"
+#include "accel/bvh/dispatch.h"
+
+namespace accel::bvh::avx512 {
+namespace {
+
+#define PT_NODE8_MASK(t0, t1) unsigned(_mm256_cmp_ps_mask(t0, t1, _CMP_LE_OQ))
+#include "accel/bvh/node8.h"
+
+}  // namespace
+}  // namespace accel::bvh::avx512
+
+namespace accel::bvh {
+std::unique_ptr<BvhBase> make_kernel_avx512(TriangleTest test) { return avx512::make_kernel<avx512::Node8>(test); }
+}  // namespace accel::bvh

@@ -1,0 +1,94 @@
+// The traversal layout: 8-wide nodes with SoA child boxes and SoA leaf blocks of four
+// primitives, collapsed from the binary build.
+//
+// Wide nodes: Dammertz, Hanika, Keller 2008, "Shallow Bounding Volume Hierarchies for
+// Fast SIMD Ray Tracing of Incoherent Rays"; Wald, Benthin, Boulos 2008, "Getting Rid of
+// Packets". One node is 256 bytes (four cache lines), tested in one 8-lane instruction
+// sequence with AVX2 or two 4-lane halves with SSE2. Leaf blocks: the "triangle4" of
+// Embree (Wald et al. 2014, "Embree: A Kernel Framework for Efficient CPU Ray Tracing"),
+// four triangles in SoA form so one Möller–Trumbore or Woop test covers them all.
+#pragma once
+
+#include <sys/mman.h>
+
+#include <algorithm>
+#include <cstdint>
+#include <cstdlib>
+#include <new>
+#include <span>
+#include <vector>
+
+#include "accel/bvh/build.h"
+
+namespace accel::bvh {
+
+constexpr int kWidth = 8;
+
+struct alignas(64) WideNode {
+    float b[6][kWidth];      ///< [lo.x, lo.y, lo.z, hi.x, hi.y, hi.z][lane]
+    uint32_t child[kWidth];  ///< interior: WideNode index; leaf: kLeaf | first block; kEmpty
+    uint32_t count[kWidth];  ///< leaf: number of blocks | kSpheres; otherwise 0
+
+    static constexpr uint32_t kLeaf = 0x80000000u;
+    static constexpr uint32_t kEmpty = 0xFFFFFFFFu;
+    static constexpr uint32_t kSpheres = 0x80000000u;  ///< in count: the blocks hold spheres
+};
+static_assert(sizeof(WideNode) == 32 * kWidth);
+
+/// Four primitives of one leaf, SoA. Triangles, fast mode: v0 and the precomputed edges
+/// e1 = v1 - v0, e2 = v2 - v0 (the same float subtractions the scalar test makes, so the
+/// results are bit-identical to naive's). Watertight mode: v0, v1, v2 as stored in the
+/// scene (Woop's test translates by the ray origin, so edges would lose its guarantee).
+/// Spheres: p[0] = centre, p[1][0] = radius. Unused lanes: slot kNone and all-zero
+/// geometry (a degenerate triangle, det = 0, that no lane mask lets through anyway).
+struct alignas(16) Block {
+    float p[3][3][4];  ///< [vertex or edge][axis][lane]
+    uint32_t slot[4];  ///< leaf-order index (into refs_), kNone for an unused lane
+
+    static constexpr uint32_t kNone = 0xFFFFFFFFu;
+};
+static_assert(sizeof(Block) == 160);
+
+/// Allocator for the arrays traversal reads: incoherent rays touch them at random, and
+/// with 4 KiB pages a few MiB of nodes overflow the TLB. Large blocks are 2 MiB aligned
+/// and advised as transparent huge pages (Linux; a no-op where unsupported).
+template <typename T>
+struct TraversalAllocator {
+    using value_type = T;
+    static constexpr size_t kHuge = size_t(2) << 20;
+    TraversalAllocator() = default;
+    template <typename U>
+    TraversalAllocator(const TraversalAllocator<U>&) {}
+    T* allocate(size_t n) {
+        const size_t bytes = n * sizeof(T);
+        const size_t align = bytes >= kHuge / 2 ? kHuge : std::max<size_t>(alignof(T), 64);
+        void* p = std::aligned_alloc(align, (bytes + align - 1) / align * align);
+        if (!p) throw std::bad_alloc();
+#ifdef MADV_HUGEPAGE
+        if (align == kHuge) madvise(p, (bytes + align - 1) / align * align, MADV_HUGEPAGE);
+#endif
+        return static_cast<T*>(p);
+    }
+    void deallocate(T* p, size_t) { std::free(p); }
+    template <typename U>
+    bool operator==(const TraversalAllocator<U>&) const { return true; }
+};
+template <typename T>
+using TraversalVector = std::vector<T, TraversalAllocator<T>>;
+
+struct WideBvh {
+    TraversalVector<WideNode> nodes;  ///< nodes[0] is the root (if any primitive)
+    TraversalVector<Block> blocks;    ///< leaf blocks, in the order collapse reaches them
+    float root[6] = {};               ///< scene box, tested once per ray before SIMD work
+};
+
+/// Collapses the binary tree into 8-wide nodes (opening the largest-area interior
+/// child until eight children are gathered) and packs every leaf into blocks.
+WideBvh collapse(const BinaryTree& tree, std::span<const GeometryView> geometry, TriangleTest test);
+
+/// Bytes the traversal arrays occupy.
+inline uint64_t wide_bytes(const WideBvh& w) {
+    return w.nodes.capacity() * sizeof(WideNode) + w.blocks.capacity() * sizeof(Block);
+}
+
+}  // namespace accel::bvh
