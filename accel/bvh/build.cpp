@@ -3,6 +3,8 @@
 // leaves priced in SIMD blocks as Embree's builders do); midpoint: the course's split.
 #include "accel/bvh/build.h"
 
+#include "accel/bvh/build_bins.h"
+
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 #include <tbb/parallel_invoke.h>
@@ -41,52 +43,11 @@ struct RangeInfo {
     }
 };
 
-// Wald 2007, "On fast Construction of SAH-based Bounding Volume Hierarchies": bin the
-// centroids into K equal intervals per axis, evaluate the SAH at the K-1 bin borders.
-constexpr int kBins = 32;
+using namespace binned;
+
 // Below these sizes the work is too small to be worth a task.
 constexpr uint32_t kParallelBuild = 4096;
 constexpr uint32_t kParallelBin = 32768;
-// SAH constants for both the build decision and the reported cost: C_trav = C_isect = 1.
-constexpr double kCostTraversal = 1.0;
-constexpr double kCostIntersect = 1.0;
-
-constexpr uint32_t kMaxFreeDepth = 90;
-
-/// SIMD blocks a leaf of n primitives fills: what the leaf kernel pays for it.
-inline double blocks(uint32_t n) { return double((n + kLeafBlock - 1) / kLeafBlock); }
-
-struct Bins {
-    Bounds3f b[3][kBins];
-    uint32_t n[3][kBins] = {};
-    void merge(const Bins& o) {
-        for (int a = 0; a < 3; ++a)
-            for (int i = 0; i < kBins; ++i) {
-                b[a][i].extend(o.b[a][i]);
-                n[a][i] += o.n[a][i];
-            }
-    }
-};
-
-/// Maps a centroid coordinate to its bin; the same function classifies for counting
-/// and for partitioning, so the partition matches the evaluated split exactly.
-struct Binner {
-    float lo[3], scale[3];
-    explicit Binner(const Bounds3f& cb) {
-        for (int a = 0; a < 3; ++a) {
-            const float ext = cb.hi[a] - cb.lo[a];
-            lo[a] = cb.lo[a];
-            scale[a] = ext > 0.0f ? float(kBins) * (1.0f - 1e-6f) / ext : 0.0f;
-        }
-    }
-    int bin(float c, int a) const {
-        // Clamp in float before converting: with a denormal extent the scale is inf and
-        // (c - lo) * scale can be inf or NaN (0 * inf), whose int conversion is UB.
-        const float f = (c - lo[a]) * scale[a];
-        if (!(f > 0.0f)) return 0;
-        return f < float(kBins - 1) ? int(f) : kBins - 1;
-    }
-};
 
 class Builder {
 public:
@@ -217,36 +178,11 @@ private:
         }
         const Binner binner(ri.cbounds);
         const Bins bins = bin(begin, end, binner);
-        double best = std::numeric_limits<double>::infinity();
-        int best_axis = -1, best_split = 0;
-        for (int a = 0; a < 3; ++a) {
-            if (!(cext[a] > 0.0f)) continue;
-            // Right-to-left sweep: area and count of everything at or right of bin i.
-            float right_area[kBins];
-            uint32_t right_count[kBins];
-            Bounds3f acc;
-            uint32_t cnt = 0;
-            for (int i = kBins - 1; i > 0; --i) {
-                acc.extend(bins.b[a][i]);
-                cnt += bins.n[a][i];
-                right_area[i] = acc.surface_area();
-                right_count[i] = cnt;
-            }
-            acc = Bounds3f{};
-            cnt = 0;
-            for (int i = 1; i < kBins; ++i) {
-                acc.extend(bins.b[a][i - 1]);
-                cnt += bins.n[a][i - 1];
-                if (cnt == 0 || right_count[i] == 0) continue;
-                const double cost = double(acc.surface_area()) * blocks(cnt) +
-                                    double(right_area[i]) * blocks(right_count[i]);
-                if (cost < best) {
-                    best = cost;
-                    best_axis = a;
-                    best_split = i;
-                }
-            }
-        }
+        const bool usable[3] = {cext[0] > 0.0f, cext[1] > 0.0f, cext[2] > 0.0f};
+        Sweep sw;
+        binned::sweep(bins.b, bins.n, bins.n, usable, sw);
+        const double best = sw.cost;
+        const int best_axis = sw.axis, best_split = sw.split;
         if (best_axis < 0) {  // cannot happen with a positive extent; be safe anyway
             if (n <= leaf_size_) return false;
             mid = median_split(begin, end, axis);
