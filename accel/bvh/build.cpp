@@ -49,15 +49,37 @@ using namespace binned;
 constexpr uint32_t kParallelBuild = 4096;
 constexpr uint32_t kParallelBin = 32768;
 
+// From this size on a node's bins also keep centroid bounds, which give the children's
+// RangeInfo without another pass over their primitives; below it the larger bins cost
+// more to clear than the pass they save.
+constexpr uint32_t kChildInfoFromBins = 1024;
+
+/// Bins, plus (WithCentroids) the centroid bounds per bin.
+template <bool WithCentroids>
+struct BinSet : Bins {};
+template <>
+struct BinSet<true> : Bins {
+    Bounds3f c[3][kBins];
+    void merge(const BinSet& o) {
+        Bins::merge(o);
+        for (int a = 0; a < 3; ++a)
+            for (int i = 0; i < kBins; ++i) c[a][i].extend(o.c[a][i]);
+    }
+};
+
 class Builder {
 public:
     Builder(std::vector<BuildPrim>& prims, BvhSplit split, uint32_t leaf_size)
         : p_(prims), split_(split), leaf_size_(leaf_size) {}
 
-    std::unique_ptr<BuildNode> build(uint32_t begin, uint32_t end, uint32_t depth) {
+    /// `known`: the range's bounds if the parent's bins already gave them.
+    std::unique_ptr<BuildNode> build(uint32_t begin, uint32_t end, uint32_t depth,
+                                     const RangeInfo* known = nullptr) {
         auto node = std::make_unique<BuildNode>();
         const uint32_t n = end - begin;
-        const RangeInfo ri = range_info(begin, end);
+        const RangeInfo ri = known ? *known : range_info(begin, end);
+        RangeInfo kids[2];
+        bool kids_known = false;
         node->bounds = ri.bounds;
         uint32_t mid = begin;
         int axis = max_dimension(ri.cbounds.diagonal());
@@ -71,7 +93,7 @@ public:
             leaf = n <= leaf_size_;
             if (!leaf) mid = midpoint_split(begin, end, ri.cbounds, axis);
         } else {
-            leaf = !sah_split(begin, end, ri, mid, axis);
+            leaf = !sah_split(begin, end, ri, mid, axis, kids, kids_known);
         }
         if (leaf) {
             // Leaves hold one primitive type, so each maps to one kind of SIMD block;
@@ -82,6 +104,7 @@ public:
             if (tmid != begin && tmid != end) {
                 leaf = false;
                 mid = tmid;
+                kids_known = false;
             }
         }
         if (leaf) {
@@ -92,11 +115,12 @@ public:
         }
         node->axis = axis;
         if (n >= kParallelBuild) {
-            tbb::parallel_invoke([&] { node->kid[0] = build(begin, mid, depth + 1); },
-                                 [&] { node->kid[1] = build(mid, end, depth + 1); });
+            tbb::parallel_invoke(
+                [&] { node->kid[0] = build(begin, mid, depth + 1, kids_known ? &kids[0] : nullptr); },
+                [&] { node->kid[1] = build(mid, end, depth + 1, kids_known ? &kids[1] : nullptr); });
         } else {
-            node->kid[0] = build(begin, mid, depth + 1);
-            node->kid[1] = build(mid, end, depth + 1);
+            node->kid[0] = build(begin, mid, depth + 1, kids_known ? &kids[0] : nullptr);
+            node->kid[1] = build(mid, end, depth + 1, kids_known ? &kids[1] : nullptr);
         }
         return node;
     }
@@ -143,23 +167,25 @@ private:
         return mid;
     }
 
-    Bins bin(uint32_t begin, uint32_t end, const Binner& binner) const {
-        auto body = [&](const tbb::blocked_range<uint32_t>& r, Bins acc) {
+    template <bool C>
+    BinSet<C> bin(uint32_t begin, uint32_t end, const Binner& binner) const {
+        auto body = [&](const tbb::blocked_range<uint32_t>& r, BinSet<C> acc) {
             for (uint32_t i = r.begin(); i < r.end(); ++i) {
                 const Vec3f c = p_[i].centroid();
                 Bounds3f pb{p_[i].lo, p_[i].hi};
                 for (int a = 0; a < 3; ++a) {
                     const int k = binner.bin(c[a], a);
                     acc.b[a][k].extend(pb);
+                    if constexpr (C) acc.c[a][k].extend(c);
                     ++acc.n[a][k];
                 }
             }
             return acc;
         };
-        if (end - begin < kParallelBin) return body({begin, end}, Bins{});
+        if (end - begin < kParallelBin) return body({begin, end}, BinSet<C>{});
         return tbb::parallel_reduce(
-            tbb::blocked_range<uint32_t>(begin, end, 8192), Bins{}, body,
-            [](Bins a, const Bins& b) {
+            tbb::blocked_range<uint32_t>(begin, end, 8192), BinSet<C>{}, body,
+            [](BinSet<C> a, const BinSet<C>& b) {
                 a.merge(b);
                 return a;
             });
@@ -167,8 +193,15 @@ private:
 
     /// Binned SAH. Returns false for "make a leaf". Above leaf_size a split is forced:
     /// the best binned one, or an object median when all centroids coincide.
-    bool sah_split(uint32_t begin, uint32_t end, const RangeInfo& ri, uint32_t& mid,
-                   int& axis) {
+    /// On a binned split also returns the children's RangeInfo, read off the bins.
+    bool sah_split(uint32_t begin, uint32_t end, const RangeInfo& ri, uint32_t& mid, int& axis,
+                   RangeInfo (&kids)[2], bool& kids_known) {
+        return end - begin >= kChildInfoFromBins ? sah_split<true>(begin, end, ri, mid, axis, kids, kids_known)
+                                                 : sah_split<false>(begin, end, ri, mid, axis, kids, kids_known);
+    }
+    template <bool C>
+    bool sah_split(uint32_t begin, uint32_t end, const RangeInfo& ri, uint32_t& mid, int& axis,
+                   RangeInfo (&kids)[2], bool& kids_known) {
         const uint32_t n = end - begin;
         const Vec3f cext = ri.cbounds.diagonal();
         if (!(max_component(cext) > 0.0f)) {  // all centroids coincide: no plane separates
@@ -177,7 +210,7 @@ private:
             return true;
         }
         const Binner binner(ri.cbounds);
-        const Bins bins = bin(begin, end, binner);
+        const BinSet<C> bins = bin<C>(begin, end, binner);
         const bool usable[3] = {cext[0] > 0.0f, cext[1] > 0.0f, cext[2] > 0.0f};
         Sweep sw;
         binned::sweep(bins.b, bins.n, bins.n, usable, sw);
@@ -197,7 +230,20 @@ private:
             return binner.bin(q.centroid()[best_axis], best_axis) < best_split;
         });
         mid = uint32_t(it - p_.begin());
-        if (mid == begin || mid == end) mid = median_split(begin, end, axis);  // paranoia
+        if (mid == begin || mid == end) {  // paranoia
+            mid = median_split(begin, end, axis);
+            return true;
+        }
+        // The bins hold exactly the primitives each side received: their union is the
+        // same min/max a pass over the children would compute, bit for bit.
+        if constexpr (C) {
+            for (int i = 0; i < kBins; ++i) {
+                RangeInfo& k = kids[i < best_split ? 0 : 1];
+                k.bounds.extend(bins.b[best_axis][i]);
+                k.cbounds.extend(bins.c[best_axis][i]);
+            }
+            kids_known = true;
+        }
         return true;
     }
 
