@@ -7,6 +7,8 @@
 #include <cstring>
 #include <unordered_map>
 
+#include <tbb/task_arena.h>
+
 #include "accel/bvh/base.h"
 #include "accel/bvh/dispatch.h"
 #include "accel/primitive.h"
@@ -36,7 +38,9 @@ void BvhBase::build(std::span<const GeometryView> geometry, const AccelOptions& 
     for (const PrimRef& r : refs) has_spheres_ |= geometry_[r.geom].type == GeometryType::Spheres;
     tree_ = opt.split == BvhSplit::Sbvh ? build_sbvh(geometry_, refs, leaf_size_, opt.build_threads)
                                         : build_binary(geometry_, refs, opt.split, leaf_size_, opt.build_threads);
-    wide_ = collapse(tree_, geometry_, opt.triangle);
+    // The block packing runs in parallel: on the build's threads, like the build.
+    tbb::task_arena arena(opt.build_threads > 0 ? opt.build_threads : tbb::task_arena::automatic);
+    arena.execute([&] { wide_ = collapse(tree_, geometry_, opt.triangle); });
 
     const TreeFacts f = tree_facts(tree_.nodes);
     const char* split = opt.split == BvhSplit::Sah ? "sah" : opt.split == BvhSplit::Sbvh ? "sbvh" : "midpoint";
