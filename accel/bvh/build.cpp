@@ -213,7 +213,7 @@ private:
         const BinSet<C> bins = bin<C>(begin, end, binner);
         const bool usable[3] = {cext[0] > 0.0f, cext[1] > 0.0f, cext[2] > 0.0f};
         Sweep sw;
-        binned::sweep(bins.b, bins.n, bins.n, usable, sw);
+        binned::sweep(bins.b, bins.n, bins.n, usable, sw, false);
         const double best = sw.cost;
         const int best_axis = sw.axis, best_split = sw.split;
         if (best_axis < 0) {  // cannot happen with a positive extent; be safe anyway

@@ -59,7 +59,7 @@ struct Binner {
 struct Sweep {
     double cost = std::numeric_limits<double>::infinity();
     int axis = -1, split = 0;  ///< bins < split go left
-    Bounds3f left, right;      ///< the two children's boxes at the best split
+    Bounds3f left, right;      ///< the two children's boxes at the best split (if asked for)
     uint32_t n_left = 0, n_right = 0;
 };
 
@@ -67,18 +67,20 @@ struct Sweep {
 /// right of / left of that bin (the same counts for object bins; entries and exits for
 /// spatial bins, Stich et al. 2009). Axes with `usable[a]` false are skipped.
 inline void sweep(const Bounds3f (&b)[3][kBins], const uint32_t (&lcount)[3][kBins],
-                  const uint32_t (&rcount)[3][kBins], const bool (&usable)[3], Sweep& best) {
+                  const uint32_t (&rcount)[3][kBins], const bool (&usable)[3], Sweep& best,
+                  bool boxes = true) {
     for (int a = 0; a < 3; ++a) {
         if (!usable[a]) continue;
-        // Right-to-left: box and count of everything at or right of bin i.
-        Bounds3f right_box[kBins];
+        // Right-to-left: area and count of everything at or right of bin i (plain
+        // floats: this runs for every node, and most nodes are small).
+        float right_area[kBins];
         uint32_t right_n[kBins];
         Bounds3f acc;
         uint32_t cnt = 0;
         for (int i = kBins - 1; i > 0; --i) {
             acc.extend(b[a][i]);
             cnt += rcount[a][i];
-            right_box[i] = acc;
+            right_area[i] = acc.surface_area();
             right_n[i] = cnt;
         }
         acc = Bounds3f{};
@@ -87,15 +89,16 @@ inline void sweep(const Bounds3f (&b)[3][kBins], const uint32_t (&lcount)[3][kBi
             acc.extend(b[a][i - 1]);
             cnt += lcount[a][i - 1];
             if (cnt == 0 || right_n[i] == 0) continue;
-            const double cost = double(acc.surface_area()) * blocks(cnt) +
-                                double(right_box[i].surface_area()) * blocks(right_n[i]);
+            const double cost = double(acc.surface_area()) * blocks(cnt) + double(right_area[i]) * blocks(right_n[i]);
             if (cost < best.cost) {
                 best.cost = cost, best.axis = a, best.split = i;
-                best.left = acc, best.right = right_box[i];
                 best.n_left = cnt, best.n_right = right_n[i];
             }
         }
     }
+    if (!boxes || best.axis < 0) return;
+    best.left = best.right = Bounds3f{};
+    for (int i = 0; i < kBins; ++i) (i < best.split ? best.left : best.right).extend(b[best.axis][i]);
 }
 
 }  // namespace accel::bvh::binned
