@@ -16,6 +16,7 @@ Conventions chosen here:
 Run: python3 scenes/make_cornell_dae.py  (rewrites scenes/cornell.dae and
 scenes/cornell_materials.dae next to this file). cornell_materials.dae is the same box
 with the CS184 3-2 BSDFs: a mirror sphere, a glass sphere and a gold microfacet sphere.
+It also writes scenes/mis_veach.dae, Veach's MIS scene in the same dialect (see MIS_WALLS).
 """
 import os
 
