@@ -47,8 +47,8 @@ oiiotool gems_glass.png cornell_materials.png cornell_dof.png helmet_sky.png boo
 # published image of benchmarks/mis_equal_time.sh (benchmarks/results/mis/).
 MIS=$SRC/benchmarks/results/mis/mis_sheet.png
 if [ -f "$MIS" ]; then
-  oiiotool --create 960x720 3 materials_sheet.png --paste +0+0 "$MIS" --resize 960x240 --paste +0+480 \
-    -o materials_sheet.png
+  oiiotool materials_sheet.png --ch R,G,B,A=1.0 "$MIS" --resize 960x240 --ch R,G,B,A=1.0 --origin +0+480 --over \
+    --ch R,G,B --fullsize 960x720 --fullpixels -o materials_sheet.png
 fi
 for f in *.log; do echo "${f%.log}: $(grep -h 'Render time' "$f" | sed 's/\[PathTracer\] //')"; done > TIMES.txt
 echo "renders in $OUT"
