@@ -238,11 +238,7 @@ TEST(Mis, GlossyFloorWithLightsOfSeveralSizes) {
     floor.metallic = 1.0f;
     floor.roughness = 0.3f;
     w.scene.materials.push_back(floor);
-    scenes::Mesh m;
-    m.positions = {Vec3f(-4, -4, 0), Vec3f(4, -4, 0), Vec3f(4, 6, 0), Vec3f(-4, 6, 0)};
-    m.pad_positions();
-    m.indices = {0, 1, 2, 0, 2, 3};
-    w.scene.meshes.push_back(m);
+    w.scene.meshes.push_back(quad(Vec3f(-4, -4, 0), Vec3f(4, -4, 0), Vec3f(4, 6, 0), Vec3f(-4, 6, 0)));
     const struct { Vec3f c; float r, L; } lights[] = {
         {Vec3f(-1, 2, 1), 0.03f, 800.0f}, {Vec3f(0, 2, 1), 0.2f, 18.0f}, {Vec3f(1.5f, 2, 1.5f), 0.8f, 1.1f}};
     for (const auto& l : lights) {
@@ -305,17 +301,9 @@ World panel_world(const scenes::Material& floor_material, bool panel_emits, Ligh
         panel.albedo = Vec3f(0.0f);
     }
     w.scene.materials.push_back(panel);
-    scenes::Mesh floor;
-    floor.positions = {Vec3f(-3, -3, 0), Vec3f(3, -3, 0), Vec3f(3, 3, 0), Vec3f(-3, 3, 0)};
-    floor.pad_positions();
-    floor.indices = {0, 1, 2, 0, 2, 3};
-    w.scene.meshes.push_back(floor);
-    scenes::Mesh quad;
-    quad.positions = {Vec3f(-0.5f, -0.5f, 2), Vec3f(0.5f, -0.5f, 2), Vec3f(0.5f, 0.5f, 2), Vec3f(-0.5f, 0.5f, 2)};
-    quad.pad_positions();
-    quad.indices = {0, 1, 2, 0, 2, 3};
-    quad.material = 1;
-    w.scene.meshes.push_back(quad);
+    w.scene.meshes.push_back(quad(Vec3f(-3, -3, 0), Vec3f(3, -3, 0), Vec3f(3, 3, 0), Vec3f(-3, 3, 0)));
+    w.scene.meshes.push_back(
+        quad(Vec3f(-0.5f, -0.5f, 2), Vec3f(0.5f, -0.5f, 2), Vec3f(0.5f, 0.5f, 2), Vec3f(-0.5f, 0.5f, 2), 1));
     scenes::Light area;
     area.type = scenes::LightType::Area;
     area.radiance = Vec3f(kPanelLe);
