@@ -238,11 +238,7 @@ TEST(Mis, GlossyFloorWithLightsOfSeveralSizes) {
     floor.metallic = 1.0f;
     floor.roughness = 0.3f;
     w.scene.materials.push_back(floor);
-    scenes::Mesh m;
-    m.positions = {Vec3f(-4, -4, 0), Vec3f(4, -4, 0), Vec3f(4, 6, 0), Vec3f(-4, 6, 0)};
-    m.pad_positions();
-    m.indices = {0, 1, 2, 0, 2, 3};
-    w.scene.meshes.push_back(m);
+    w.scene.meshes.push_back(quad(Vec3f(-4, -4, 0), Vec3f(4, -4, 0), Vec3f(4, 6, 0), Vec3f(-4, 6, 0)));
     const struct { Vec3f c; float r, L; } lights[] = {
         {Vec3f(-1, 2, 1), 0.03f, 800.0f}, {Vec3f(0, 2, 1), 0.2f, 18.0f}, {Vec3f(1.5f, 2, 1.5f), 0.8f, 1.1f}};
     for (const auto& l : lights) {
@@ -283,4 +279,127 @@ TEST(Mis, GlossyFloorWithLightsOfSeveralSizes) {
                 << "region " << r << " strategy " << k;
         }
     std::printf("summed variance: mis %.4g, light %.4g, bsdf %.4g\n", var_sum[0], var_sum[1], var_sum[2]);
+}
+
+namespace {
+
+/// The CS184 Cornell boxes' "one light, two descriptions" in miniature: a floor of
+/// `floor_material` at z = 0 under a 1 x 1 emissive panel mesh at z = 2 (radiance Le,
+/// both sides) and a CGL area light describing the same rectangle, facing down. With
+/// `panel_emits` false the panel is a black, non-emitting occluder of the same shape:
+/// what course mode must render when a bounce never sees the panel.
+constexpr float kPanelLe = 6.0f;
+World panel_world(const scenes::Material& floor_material, bool panel_emits, LightModel model) {
+    World w;
+    w.model = model;
+    w.scene.up = Vec3f(0, 0, 1);
+    w.scene.materials.push_back(floor_material);
+    scenes::Material panel;
+    if (panel_emits) {
+        panel.emission = Vec3f(kPanelLe);
+    } else {
+        panel.albedo = Vec3f(0.0f);
+    }
+    w.scene.materials.push_back(panel);
+    w.scene.meshes.push_back(quad(Vec3f(-3, -3, 0), Vec3f(3, -3, 0), Vec3f(3, 3, 0), Vec3f(-3, 3, 0)));
+    w.scene.meshes.push_back(
+        quad(Vec3f(-0.5f, -0.5f, 2), Vec3f(0.5f, -0.5f, 2), Vec3f(0.5f, 0.5f, 2), Vec3f(-0.5f, 0.5f, 2), 1));
+    scenes::Light area;
+    area.type = scenes::LightType::Area;
+    area.radiance = Vec3f(kPanelLe);
+    area.position = Vec3f(0, 0, 2);
+    area.direction = Vec3f(0, 0, -1);
+    area.edge_u = Vec3f(1, 0, 0);
+    area.edge_v = Vec3f(0, 1, 0);
+    w.scene.lights.push_back(area);
+    return w;
+}
+
+/// The camera of panel_world: the floor point (0, -2, 0) mirrors the panel's centre; a
+/// mirror floor shows the panel for |x| < 1/6, -2.17 < y < -1.83.
+const Vec3f kPanelCam(0, -3, 1);
+
+}  // namespace
+
+TEST(CourseLights, MirrorShowsThePanelOnceInBothModes) {
+    // Under --lights=course a bounce is black to emission except through delta lobes: a
+    // mirror shows the panel (as the course's 3-2 does), exactly R x Le, and the area
+    // light is not added on top (light sampling is skipped at a delta lobe). Mesh mode
+    // reads the same.
+    scenes::Material mirror;
+    mirror.bsdf = scenes::BsdfKind::Mirror;
+    mirror.reflectance = Vec3f(0.6f, 0.8f, 0.9f);
+    for (LightModel model : {LightModel::Course, LightModel::Mesh}) {
+        World w = panel_world(mirror, true, model);
+        IntegratorSettings is;
+        is.max_depth = 3;
+        w.build(is);
+        for (const Vec3f& t : {Vec3f(0, -2, 0), Vec3f(0.1f, -1.9f, 0), Vec3f(-0.1f, -2.1f, 0)}) {
+            const Estimate e = li(w, ray(kPanelCam, t - kPanelCam), 64);
+            EXPECT_NEAR(e.mean, 0.8 * kPanelLe, 4 * e.se + 1e-4)
+                << light_model_name(model) << " at " << t.x << " " << t.y;
+        }
+        // Beside the panel's reflection the mirror shows the (black) far floor.
+        const Vec3f off(0, -1.5f, 0);
+        EXPECT_NEAR(li(w, ray(kPanelCam, off - kPanelCam), 64).mean, 0.0, 1e-6) << light_model_name(model);
+    }
+}
+
+TEST(CourseLights, GlossyFloorSeesOnlyTheSampledAreaLight) {
+    // At a microfacet (non-delta) surface course mode takes direct light from the
+    // library_lights alone. If the BSDF bounce also added the panel's emission (with or
+    // without an MIS weight), the panel would be counted on top of its area light. So the
+    // glossy floor under the emitting panel must read what it reads under a black panel
+    // of the same shape, which only the area light lights; region means within 4 standard
+    // errors, on independent streams. The floor is lit (not a vacuous comparison), and
+    // --strategy=bsdf, which in course mode falls back to MIS, reads the same.
+    scenes::Material gold;
+    gold.bsdf = scenes::BsdfKind::Microfacet;
+    gold.alpha = 0.25f;
+    using S = IntegratorSettings::Strategy;
+    const int n = 6000;
+    for (int depth : {1, 4}) {
+        IntegratorSettings is;
+        is.max_depth = depth;
+        World course = panel_world(gold, true, LightModel::Course);
+        course.build(is);
+        World reference = panel_world(gold, false, LightModel::Course);
+        reference.build(is);
+        IntegratorSettings bsdf_is = is;
+        bsdf_is.strategy = S::Bsdf;
+        World course_bsdf = panel_world(gold, true, LightModel::Course);
+        course_bsdf.build(bsdf_is);
+        for (const Vec3f& t : {Vec3f(0, -2, 0), Vec3f(0.3f, -1.8f, 0), Vec3f(0, -1.4f, 0), Vec3f(-0.6f, -2.4f, 0)}) {
+            const accel::Ray r = ray(kPanelCam, t - kPanelCam);
+            const Estimate a = estimate(*course.integrator, *course.accel, r, n, 101);
+            const Estimate b = estimate(*reference.integrator, *reference.accel, r, n, 202);
+            const Estimate c = estimate(*course_bsdf.integrator, *course_bsdf.accel, r, n, 303);
+            const std::string where = "depth " + std::to_string(depth) + " at " + std::to_string(t.x) + " " +
+                                      std::to_string(t.y);
+            EXPECT_GT(b.mean, 10 * b.se) << "the area light lights the floor, " << where;
+            EXPECT_NEAR(a.mean, b.mean, 4 * std::sqrt(a.se * a.se + b.se * b.se)) << where;
+            EXPECT_NEAR(c.mean, b.mean, 4 * std::sqrt(c.se * c.se + b.se * b.se)) << "strategy=bsdf, " << where;
+        }
+    }
+}
+
+TEST(CourseLights, GlossyFloorAgreesAcrossModesWhenTheLightIsThePanel) {
+    // When the area light and the panel describe the same rectangle, mesh mode (panel
+    // sampled by area, MIS with the BSDF, counted once) and course mode (area light
+    // sampled, panel black to bounces) estimate the same direct light on a glossy floor.
+    scenes::Material gold;
+    gold.bsdf = scenes::BsdfKind::Microfacet;
+    gold.alpha = 0.25f;
+    IntegratorSettings is;
+    is.max_depth = 1;
+    World course = panel_world(gold, true, LightModel::Course);
+    course.build(is);
+    World mesh = panel_world(gold, true, LightModel::Mesh);
+    mesh.build(is);
+    for (const Vec3f& t : {Vec3f(0, -2, 0), Vec3f(0.3f, -1.8f, 0), Vec3f(0, -1.4f, 0)}) {
+        const accel::Ray r = ray(kPanelCam, t - kPanelCam);
+        const Estimate a = estimate(*course.integrator, *course.accel, r, 6000, 11);
+        const Estimate b = estimate(*mesh.integrator, *mesh.accel, r, 6000, 12);
+        EXPECT_NEAR(a.mean, b.mean, 4 * std::sqrt(a.se * a.se + b.se * b.se)) << t.x << " " << t.y;
+    }
 }

@@ -37,6 +37,16 @@ inline Estimate estimate(const Integrator& integ, const accel::Accelerator& acc,
     return e;
 }
 
+/// A quad a-b-c-d (counter-clockwise seen from its front) as two triangles.
+inline scenes::Mesh quad(Vec3f a, Vec3f b, Vec3f c, Vec3f d, uint32_t material = 0) {
+    scenes::Mesh m;
+    m.positions = {a, b, c, d};
+    m.pad_positions();
+    m.indices = {0, 1, 2, 0, 2, 3};
+    m.material = material;
+    return m;
+}
+
 /// Everything a render needs, kept alive together.
 struct World {
     scenes::Scene scene;

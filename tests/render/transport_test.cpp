@@ -28,15 +28,6 @@ accel::Ray ray_to(const Vec3f& from, const Vec3f& to) {
     return r;
 }
 
-scenes::Mesh quad(Vec3f a, Vec3f b, Vec3f c, Vec3f d, uint32_t material) {
-    scenes::Mesh m;
-    m.positions = {a, b, c, d};
-    m.pad_positions();
-    m.indices = {0, 1, 2, 0, 2, 3};
-    m.material = material;
-    return m;
-}
-
 
 /// White furnace: the camera inside a closed sphere that emits Le and reflects albedo a.
 /// Every bounce adds a^k Le, so radiance is Le / (1 - a) (truncated at the depth cap).
