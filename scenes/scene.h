@@ -70,6 +70,10 @@ struct Material {
     /// Emits on both sides (CS184 files: the course's emission has no side test; glTF:
     /// the material's doubleSided). One-sided emitters emit toward their shading normals.
     bool double_sided = true;
+    /// glTF KHR_materials_unlit: camera rays see the base colour (`albedo` times
+    /// `albedo_texture`) as radiance, with no lighting; every other ray finds it black
+    /// (it neither reflects nor lights anything). One-sided unless `double_sided`.
+    bool unlit = false;
 
     bool is_emissive() const {
         return emission.x > 0.0f || emission.y > 0.0f || emission.z > 0.0f;

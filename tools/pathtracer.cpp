@@ -96,7 +96,7 @@ void apply_course_camera(renderer::CameraSetup& cam, const std::string& file, fl
 }  // namespace
 
 int main(int argc, char** argv) {
-    CLI::App app{"Physically based path tracer: diffuse, mirror, glass, microfacet and glTF PBR materials (CS184 dialect "
+    CLI::App app{"Physically based path tracer: diffuse, mirror, glass, microfacet, glTF PBR and unlit materials (CS184 dialect "
                  "COLLADA, glTF 2.0), on our own BVH or on Embree."};
     app.set_help_flag("-h,--help", "Print this help and exit");
 
@@ -117,7 +117,12 @@ int main(int argc, char** argv) {
     float lens_radius = -1, focal_distance = -1;
     std::string strategy = "mis";
 
-    app.add_option("scene", scene_path, "Scene file (.dae, .gltf, .glb)")->required();
+    app.add_option("scene", scene_path,
+                   "Scene file: .dae (CS184 COLLADA, CGL or CMU462 profile), .gltf or .glb (glTF 2.0 with "
+                   "KHR_draco_mesh_compression, KHR_mesh_quantization, KHR_texture_transform, "
+                   "KHR_lights_punctual, KHR_materials_emissive_strength, KHR_materials_transmission, "
+                   "KHR_materials_ior, KHR_materials_unlit)")
+        ->required();
     app.add_option("-s", rs.spp, "Samples per pixel (the cap under -a)")->check(CLI::Range(1, 1 << 20));
     app.add_option("-l", is.light_samples, "Samples per area light")->check(CLI::Range(1, 1 << 16));
     app.add_option("-t", rs.threads, "Render threads (default: all cores)")->check(CLI::Range(1, 1024));

@@ -13,11 +13,20 @@ namespace {
 
 /// Diffuse reflectance at a hit; emitters do not reflect (a course trap) unless the
 /// material says it does both.
+/// Base colour: albedo times its texture.
+Vec3f reflectance_of(const scenes::Scene& scene, const scenes::Material& m, const Interaction& it) {
+    return m.albedo * texel(scene, m.albedo_texture, it.uv);
+}
+
 Vec3f reflectance(const scenes::Scene& scene, const Interaction& it) {
     if (it.material >= scene.materials.size()) return Vec3f(0.8f);
     const scenes::Material& m = scene.materials[it.material];
     if (m.is_emissive() && !m.emitter_reflects) return Vec3f(0.0f);
-    return m.albedo * texel(scene, m.albedo_texture, it.uv);
+    return reflectance_of(scene, m, it);
+}
+
+bool is_unlit(const scenes::Scene& scene, const Interaction& it) {
+    return it.material < scene.materials.size() && scene.materials[it.material].unlit;
 }
 
 bool is_black(const Vec3f& v) { return !(v.x > 0 || v.y > 0 || v.z > 0); }
@@ -55,6 +64,7 @@ PathIntegrator::PathIntegrator(const scenes::Scene& scene, const SceneGeometry& 
     const accel::Bounds3f b = scene.bounds();
     scale_ = b.empty() ? 1.0f : accel::max_component(b.diagonal());
     if (s_.name == "direct") s_.max_depth = std::min(s_.max_depth, 1);
+    for (const scenes::Material& m : scene.materials) unlit_ |= m.unlit;
 }
 
 bool PathIntegrator::counts(int bounce) const {
@@ -77,6 +87,13 @@ Vec3f PathIntegrator::li(const accel::Ray& camera_ray, SampleContext& ctx) const
 
     Vec3f L(0.0f);
     Vec3f wo = -accel::normalize(camera_ray.dir);
+    if (unlit_ && is_unlit(scene_, it)) {
+        // KHR_materials_unlit: the camera sees the base colour itself, as a viewer shows
+        // it, from the front face only unless double-sided (glTF's culling).
+        const scenes::Material& m = scene_.materials[it.material];
+        if (!counts(0) || (!m.double_sided && accel::dot(it.ng, wo) <= 0)) return L;
+        return reflectance_of(scene_, m, it);
+    }
     if (counts(0)) L += lights_.emitted(it, wo);
     Vec3f beta(1.0f);
     for (int bounce = 1; bounce <= s_.max_depth; ++bounce) {
@@ -84,6 +101,10 @@ Vec3f PathIntegrator::li(const accel::Ray& camera_ray, SampleContext& ctx) const
         // Lambert-only loop below, so a diffuse scene costs what it did before.
         if (it.material < scene_.materials.size()) {
             const scenes::Material& m = scene_.materials[it.material];
+            // Unlit surfaces are for camera rays only: black to every other ray, so they
+            // neither reflect nor light anything (Blender's import likewise limits their
+            // colour to camera rays).
+            if (unlit_ && m.unlit) break;
             if (m.bsdf != scenes::BsdfKind::Diffuse) {
                 if (m.is_emissive() && !m.emitter_reflects) break;
                 if (!scatter(m, bounce, it, wo, beta, L, ctx)) break;

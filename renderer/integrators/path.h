@@ -40,6 +40,8 @@ private:
     const LightSet& lights_;
     IntegratorSettings s_;
     float scale_;
+    /// Does any material use KHR_materials_unlit? Scenes without one skip its tests.
+    bool unlit_ = false;
 };
 
 }  // namespace renderer

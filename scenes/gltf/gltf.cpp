@@ -44,6 +44,7 @@ const std::set<std::string>& supported_extensions() {
     static const std::set<std::string> s = {"KHR_draco_mesh_compression",
                                             "KHR_lights_punctual",
                                             "KHR_materials_emissive_strength",
+                                            "KHR_materials_unlit",
                                             "KHR_mesh_quantization",
                                             "KHR_texture_transform"};
     return s;
@@ -829,7 +830,9 @@ uint32_t Loader::material_index(int mi, const std::string& user) {
         emissive = emissive * float(strength);
         if (!is_finite(emissive) || emissive.x < 0 || emissive.y < 0 || emissive.z < 0)
             fail(mdesc + ": emission (emissiveFactor x emissiveStrength) must be finite and non-negative");
-        out.emission = emissive;
+        // An unlit material shows its base colour and nothing else (emission included).
+        const bool unlit = g.extensions.count("KHR_materials_unlit") > 0;
+        out.emission = unlit ? Vec3f(0.0f) : emissive;
         out.double_sided = g.doubleSided;
         // glTF adds emission on top of the reflected light (glTF 2.0 spec, 3.9.3), unlike
         // the CS184 panels, which only emit.
@@ -871,12 +874,18 @@ uint32_t Loader::material_index(int mi, const std::string& user) {
             texture_image(g.occlusionTexture.index, mdesc + " occlusionTexture");
             ignored_material_features_.insert("occlusionTexture");
         }
-        read_pbr(g, mdesc, out, uv_set);
+        if (unlit) {
+            // KHR_materials_unlit: colour = the base colour term; every other PBR property
+            // is only a fallback for viewers without the extension, so none is read.
+            out.unlit = true;
+        } else {
+            read_pbr(g, mdesc, out, uv_set);
+        }
         if (g.alphaMode != "OPAQUE" && !g.alphaMode.empty())
             ignored_material_features_.insert("alphaMode " + g.alphaMode);
         for (const auto& [ext, v] : g.extensions)
             if (ext != "KHR_materials_emissive_strength" && ext != "KHR_materials_transmission" &&
-                ext != "KHR_materials_ior")
+                ext != "KHR_materials_ior" && ext != "KHR_materials_unlit")
                 ignored_material_features_.insert(ext);
     }
     uint32_t idx = uint32_t(scene_.materials.size());

@@ -18,6 +18,7 @@ check() {  # check NAME EXPECTED_STATUS PATTERN -- command...
 }
 
 check help 0 "--embree-quality" -- "$PT" --help
+grep -q "KHR_materials_unlit" "$TMP/out" || { echo "FAIL help does not list KHR_materials_unlit"; fails=$((fails+1)); }
 for opt in -s -l -t -m -o -a -H -f -r -p --integrator --accel --bvh --leaf-size --triangle \
            --embree-quality --embree-robust --embree-count --camera --seed --rr --only; do
   grep -qE -- "^ +$opt[ ,]" "$TMP/out" || { echo "FAIL help does not document $opt"; fails=$((fails+1)); }
@@ -67,6 +68,9 @@ check bad-gltf-missing-buffer 2 "nobin.gltf.*missing.bin" -- "$PT" "$TMP/bad/nob
 echo '{"asset":{"version":"2.0"},"buffers":[{"uri":"data:application/octet-stream;base64,AAAAAAAAAAAAAAAAAACAPwAAAAAAAAAAAAAAAAAAgD8AAAAA","byteLength":36}],"bufferViews":[{"buffer":0,"byteLength":36}],"accessors":[{"bufferView":0,"componentType":5126,"count":3,"type":"VEC3","min":[0,0,0],"max":[1,1,0]}],"images":[{"uri":"gone.png"}],"textures":[{"source":0}],"materials":[{"pbrMetallicRoughness":{"baseColorTexture":{"index":0}}}],"meshes":[{"primitives":[{"attributes":{"POSITION":0},"material":0}]}],"nodes":[{"mesh":0}],"scenes":[{"nodes":[0]}]}' > "$TMP/bad/notex.gltf"
 check gltf-missing-texture 0 "Warning: .*notex.gltf.*gone.png.*rendered without it" -- "$PT" -r 16 12 -s 1 -f "$TMP/notex.png" "$TMP/bad/notex.gltf"
 [ -s "$TMP/notex.png" ] || { echo "FAIL gltf-missing-texture wrote no image"; fails=$((fails+1)); }
+# A file that requires KHR_materials_unlit renders (tests/gltf/gltf_unlit_test.cpp checks the image).
+check gltf-unlit-required 0 "" -- "$PT" -r 16 12 -s 1 -f "$TMP/unlit.png" "$SRC/tests/gltf/data/unlit_panel.gltf"
+[ -s "$TMP/unlit.png" ] || { echo "FAIL gltf-unlit-required wrote no image"; fails=$((fails+1)); }
 check gltf-missing-texture-strict 2 "notex.gltf.*gone.png.*--strict" -- "$PT" --strict -r 16 12 -s 1 -f "$TMP/notex2.png" "$TMP/bad/notex.gltf"
 [ ! -e "$TMP/notex2.png" ] || { echo "FAIL --strict still wrote an image"; fails=$((fails+1)); }
 printf 'glTF\x02\x00\x00\x00\xff\x00\x00\x00' > "$TMP/bad/truncated.glb"
