@@ -218,6 +218,12 @@ inline Lanes tri4(const Block& b, const LeafRay& r, float t_max) {
     return tri4_mt(b, r, t_max);
 }
 
+/// Sphere in lane l of a sphere block (centre in p[0], radius in p[1][0]) hit in
+/// [ray.t_min, t]; its distance in ts.
+inline bool sphere_lane(const Block& b, int l, const Ray& ray, float t, float& ts) {
+    return intersect_sphere(ray, Vec3f(b.p[0][0][l], b.p[0][1][l], b.p[0][2][l]), b.p[1][0][l], t, ts);
+}
+
 /// Portable child selection for policies without a vector form (SSE2): the hit lane
 /// with the smallest entry distance, and the other hit lanes pushed in lane order.
 inline int nearest_scalar(const float* dist, unsigned mask) {
@@ -286,10 +292,7 @@ uint32_t traverse(const WideBvh& w, const Ray& ray_in, float& t_io, float& u_out
                 if (HasSpheres && (count & WideNode::kSpheres)) {
                     for (int l = 0; l < 4 && b->slot[l] != Block::kNone; ++l) {
                         float ts;
-                        const Vec3f c(b->p[0][0][l], b->p[0][1][l], b->p[0][2][l]);
-                        if (intersect_sphere(ray, c, b->p[1][0][l], t, ts)) {
-                            t = ts, u = v = 0.0f, found = b->slot[l];
-                        }
+                        if (sphere_lane(*b, l, ray, t, ts)) t = ts, u = v = 0.0f, found = b->slot[l];
                     }
                     continue;
                 }
@@ -399,11 +402,9 @@ bool occlude(const WideBvh& w, const Ray& ray_in, TraceStats& stats) {
             for (; b != end; ++b) {
                 if constexpr (Count) tests += unsigned(__builtin_popcount(filled(*b)));
                 if (HasSpheres && (count & WideNode::kSpheres)) {
-                    for (int l = 0; l < 4 && b->slot[l] != Block::kNone; ++l) {
-                        float ts;
-                        const Vec3f c(b->p[0][0][l], b->p[0][1][l], b->p[0][2][l]);
-                        if (intersect_sphere(ray, c, b->p[1][0][l], t, ts)) return finish(true);
-                    }
+                    float ts;
+                    for (int l = 0; l < 4 && b->slot[l] != Block::kNone; ++l)
+                        if (sphere_lane(*b, l, ray, t, ts)) return finish(true);
                     continue;
                 }
                 if (tri4<Test>(*b, lr, t).mask) return finish(true);
