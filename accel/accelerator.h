@@ -54,7 +54,7 @@ struct GeometryView {
 };
 
 enum class TriangleTest : uint8_t { Fast, Watertight };  // Möller–Trumbore | Woop 2013
-enum class BvhSplit : uint8_t { Midpoint, Sah };
+enum class BvhSplit : uint8_t { Midpoint, Sah, Sbvh };  // Sbvh: SAH + spatial splits
 enum class EmbreeQuality : uint8_t { Low, Medium, High };
 /// Instruction set of the custom BVH's traversal kernel; Auto picks by CPUID at run time.
 enum class Isa : uint8_t { Auto, Sse2, Avx2, Avx512 };

@@ -25,7 +25,7 @@ BackendSpec parse_backend_spec(const std::string& spec) {
     for (size_t i = 1; i < words.size(); ++i) {
         const std::string& w = words[i];
         if (w == "fast" || w == "watertight") tri = w;
-        else if (b.backend == "custom" && (w == "sah" || w == "midpoint")) split = w;
+        else if (b.backend == "custom" && (w == "sah" || w == "midpoint" || w == "sbvh")) split = w;
         else if (b.backend == "custom" && w.rfind("leaf", 0) == 0 && w.size() > 4) {
             leaf = unsigned(std::stoul(w.substr(4)));
             if (leaf < 1 || leaf > 255) throw std::invalid_argument("backend spec '" + spec + "': leaf size 1..255");
@@ -37,7 +37,9 @@ BackendSpec parse_backend_spec(const std::string& spec) {
             throw std::invalid_argument("backend spec '" + spec + "': unknown word '" + w + "'");
     }
     b.options.triangle = tri == "watertight" ? accel::TriangleTest::Watertight : accel::TriangleTest::Fast;
-    b.options.split = split == "midpoint" ? accel::BvhSplit::Midpoint : accel::BvhSplit::Sah;
+    b.options.split = split == "midpoint" ? accel::BvhSplit::Midpoint
+                      : split == "sbvh"   ? accel::BvhSplit::Sbvh
+                                          : accel::BvhSplit::Sah;
     if (leaf) b.options.leaf_size = leaf;
     b.options.embree_quality = quality == "low"      ? accel::EmbreeQuality::Low
                                : quality == "medium" ? accel::EmbreeQuality::Medium

@@ -16,7 +16,7 @@ struct BackendSpec {
 };
 
 /// Parses one spec; throws std::invalid_argument naming the bad word. Words after the
-/// backend name, in any order: fast|watertight, sah|midpoint, leafN,
+/// backend name, in any order: fast|watertight, sah|midpoint|sbvh, leafN,
 /// auto|sse2|avx2|avx512 (custom's kernel), low|medium|high, robust, count.
 BackendSpec parse_backend_spec(const std::string& spec);
 

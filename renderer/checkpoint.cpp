@@ -2,8 +2,11 @@
 
 #include <fmt/format.h>
 
+#include <cerrno>
+#include <csignal>
 #include <cstdio>
 #include <cstring>
+#include <filesystem>
 #include <fstream>
 #include <memory>
 
@@ -21,6 +24,25 @@ struct Header {
     int32_t width, height;
     uint32_t fingerprint_bytes;
 };
+
+/// A kill -9 during a write leaves PATH.tmpPID behind (no handler runs); the next
+/// successful write removes those of processes that no longer exist, so crash debris
+/// does not pile up beside a long render that is killed and resumed again and again.
+void remove_stale_temporaries(const std::string& path) {
+    namespace fs = std::filesystem;
+    const fs::path target(path);
+    const std::string prefix = target.filename().string() + ".tmp";
+    std::error_code ec;
+    const fs::path dir = target.has_parent_path() ? target.parent_path() : fs::path(".");
+    for (const fs::directory_entry& e : fs::directory_iterator(dir, ec)) {
+        const std::string name = e.path().filename().string();
+        if (name.size() <= prefix.size() || name.compare(0, prefix.size(), prefix) != 0) continue;
+        const std::string digits = name.substr(prefix.size());
+        if (digits.find_first_not_of("0123456789") != std::string::npos || digits.size() > 9) continue;
+        const pid_t pid = pid_t(std::stol(digits));
+        if (pid != ::getpid() && ::kill(pid, 0) != 0 && errno == ESRCH) fs::remove(e.path(), ec);
+    }
+}
 
 }  // namespace
 
@@ -44,6 +66,7 @@ void write_checkpoint(const std::string& path, const Accumulation& acc, const st
         std::remove(tmp.c_str());
         throw CheckpointError(fmt::format("{}: cannot write checkpoint: {}", path, why));
     }
+    remove_stale_temporaries(path);
 }
 
 Accumulation read_checkpoint(const std::string& path, const std::string& fingerprint) {

@@ -144,7 +144,8 @@ int main(int argc, char** argv) {
         ->check(CLI::IsMember({"normals", "direct", "path"}));
     app.add_option("--accel", backend, "naive | custom | embree")
         ->check(CLI::IsMember({"naive", "custom", "embree"}));
-    app.add_option("--bvh", bvh, "Custom BVH split: midpoint | sah")->check(CLI::IsMember({"midpoint", "sah"}));
+    app.add_option("--bvh", bvh, "Custom BVH split: midpoint | sah | sbvh (SAH + spatial splits)")
+        ->check(CLI::IsMember({"midpoint", "sah", "sbvh"}));
     app.add_option("--leaf-size", ao.leaf_size, "Custom BVH: maximum primitives per leaf")->check(CLI::Range(1, 255));
     app.add_option("--triangle", tri, "Triangle test: fast (Moller-Trumbore) | watertight (Woop 2013)")
         ->check(CLI::IsMember({"fast", "watertight"}));
@@ -234,7 +235,9 @@ int main(int argc, char** argv) {
                   : strategy == "bsdf" ? renderer::IntegratorSettings::Strategy::Bsdf
                                        : renderer::IntegratorSettings::Strategy::Mis;
     is.offset = offset == "epsilon" ? renderer::OffsetMode::Epsilon : renderer::OffsetMode::ErrorBound;
-    ao.split = bvh == "midpoint" ? accel::BvhSplit::Midpoint : accel::BvhSplit::Sah;
+    ao.split = bvh == "midpoint" ? accel::BvhSplit::Midpoint
+               : bvh == "sbvh"   ? accel::BvhSplit::Sbvh
+                                 : accel::BvhSplit::Sah;
     ao.triangle = tri == "watertight" ? accel::TriangleTest::Watertight : accel::TriangleTest::Fast;
     accel::parse_isa(isa, ao.isa);
     ao.embree_quality = quality == "low"      ? accel::EmbreeQuality::Low

@@ -77,7 +77,7 @@ int main(int argc, char** argv) {
     app.add_option("--rays", rays, "Rays per kind")->check(CLI::Range(size_t(1), size_t(100000000)));
     app.add_option("--backends", backends_arg,
                    "Comma-separated backends to check, e.g. custom:sah:fast,custom:midpoint:watertight,"
-                   "embree:high (default: custom with both splits and both triangle tests, embree; "
+                   "embree:high (default: custom with every split and both triangle tests, embree; "
                    "naive too up to 10k triangles)");
     app.add_option("--reference", reference_arg,
                    "Reference backend (default: naive:watertight up to 10k triangles, else embree:high)");
@@ -107,7 +107,8 @@ int main(int argc, char** argv) {
                                                                   : "custom:sah:watertight");
         std::string list = backends_arg;
         if (list.empty()) {
-            list = "custom:sah:fast,custom:sah:watertight,custom:midpoint:fast,custom:midpoint:watertight";
+            list = "custom:sah:fast,custom:sah:watertight,custom:midpoint:fast,custom:midpoint:watertight,"
+                   "custom:sbvh:fast,custom:sbvh:watertight";
             if (have_embree) list += ",embree:high";
             if (small) list += ",naive:fast";
         }

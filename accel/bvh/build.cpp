@@ -3,6 +3,8 @@
 // leaves priced in SIMD blocks as Embree's builders do); midpoint: the course's split.
 #include "accel/bvh/build.h"
 
+#include "accel/bvh/build_bins.h"
+
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 #include <tbb/parallel_invoke.h>
@@ -41,50 +43,27 @@ struct RangeInfo {
     }
 };
 
-// Wald 2007, "On fast Construction of SAH-based Bounding Volume Hierarchies": bin the
-// centroids into K equal intervals per axis, evaluate the SAH at the K-1 bin borders.
-constexpr int kBins = 32;
+using namespace binned;
+
 // Below these sizes the work is too small to be worth a task.
 constexpr uint32_t kParallelBuild = 4096;
 constexpr uint32_t kParallelBin = 32768;
-// SAH constants for both the build decision and the reported cost: C_trav = C_isect = 1.
-constexpr double kCostTraversal = 1.0;
-constexpr double kCostIntersect = 1.0;
 
-constexpr uint32_t kMaxFreeDepth = 90;
+// From this size on a node's bins also keep centroid bounds, which give the children's
+// RangeInfo without another pass over their primitives; below it the larger bins cost
+// more to clear than the pass they save.
+constexpr uint32_t kChildInfoFromBins = 1024;
 
-/// SIMD blocks a leaf of n primitives fills: what the leaf kernel pays for it.
-inline double blocks(uint32_t n) { return double((n + kLeafBlock - 1) / kLeafBlock); }
-
-struct Bins {
-    Bounds3f b[3][kBins];
-    uint32_t n[3][kBins] = {};
-    void merge(const Bins& o) {
+/// Bins, plus (WithCentroids) the centroid bounds per bin.
+template <bool WithCentroids>
+struct BinSet : Bins {};
+template <>
+struct BinSet<true> : Bins {
+    Bounds3f c[3][kBins];
+    void merge(const BinSet& o) {
+        Bins::merge(o);
         for (int a = 0; a < 3; ++a)
-            for (int i = 0; i < kBins; ++i) {
-                b[a][i].extend(o.b[a][i]);
-                n[a][i] += o.n[a][i];
-            }
-    }
-};
-
-/// Maps a centroid coordinate to its bin; the same function classifies for counting
-/// and for partitioning, so the partition matches the evaluated split exactly.
-struct Binner {
-    float lo[3], scale[3];
-    explicit Binner(const Bounds3f& cb) {
-        for (int a = 0; a < 3; ++a) {
-            const float ext = cb.hi[a] - cb.lo[a];
-            lo[a] = cb.lo[a];
-            scale[a] = ext > 0.0f ? float(kBins) * (1.0f - 1e-6f) / ext : 0.0f;
-        }
-    }
-    int bin(float c, int a) const {
-        // Clamp in float before converting: with a denormal extent the scale is inf and
-        // (c - lo) * scale can be inf or NaN (0 * inf), whose int conversion is UB.
-        const float f = (c - lo[a]) * scale[a];
-        if (!(f > 0.0f)) return 0;
-        return f < float(kBins - 1) ? int(f) : kBins - 1;
+            for (int i = 0; i < kBins; ++i) c[a][i].extend(o.c[a][i]);
     }
 };
 
@@ -93,10 +72,14 @@ public:
     Builder(std::vector<BuildPrim>& prims, BvhSplit split, uint32_t leaf_size)
         : p_(prims), split_(split), leaf_size_(leaf_size) {}
 
-    std::unique_ptr<BuildNode> build(uint32_t begin, uint32_t end, uint32_t depth) {
+    /// `known`: the range's bounds if the parent's bins already gave them.
+    std::unique_ptr<BuildNode> build(uint32_t begin, uint32_t end, uint32_t depth,
+                                     const RangeInfo* known = nullptr) {
         auto node = std::make_unique<BuildNode>();
         const uint32_t n = end - begin;
-        const RangeInfo ri = range_info(begin, end);
+        const RangeInfo ri = known ? *known : range_info(begin, end);
+        RangeInfo kids[2];
+        bool kids_known = false;
         node->bounds = ri.bounds;
         uint32_t mid = begin;
         int axis = max_dimension(ri.cbounds.diagonal());
@@ -110,7 +93,7 @@ public:
             leaf = n <= leaf_size_;
             if (!leaf) mid = midpoint_split(begin, end, ri.cbounds, axis);
         } else {
-            leaf = !sah_split(begin, end, ri, mid, axis);
+            leaf = !sah_split(begin, end, ri, mid, axis, kids, kids_known);
         }
         if (leaf) {
             // Leaves hold one primitive type, so each maps to one kind of SIMD block;
@@ -121,6 +104,7 @@ public:
             if (tmid != begin && tmid != end) {
                 leaf = false;
                 mid = tmid;
+                kids_known = false;
             }
         }
         if (leaf) {
@@ -131,11 +115,12 @@ public:
         }
         node->axis = axis;
         if (n >= kParallelBuild) {
-            tbb::parallel_invoke([&] { node->kid[0] = build(begin, mid, depth + 1); },
-                                 [&] { node->kid[1] = build(mid, end, depth + 1); });
+            tbb::parallel_invoke(
+                [&] { node->kid[0] = build(begin, mid, depth + 1, kids_known ? &kids[0] : nullptr); },
+                [&] { node->kid[1] = build(mid, end, depth + 1, kids_known ? &kids[1] : nullptr); });
         } else {
-            node->kid[0] = build(begin, mid, depth + 1);
-            node->kid[1] = build(mid, end, depth + 1);
+            node->kid[0] = build(begin, mid, depth + 1, kids_known ? &kids[0] : nullptr);
+            node->kid[1] = build(mid, end, depth + 1, kids_known ? &kids[1] : nullptr);
         }
         return node;
     }
@@ -182,23 +167,25 @@ private:
         return mid;
     }
 
-    Bins bin(uint32_t begin, uint32_t end, const Binner& binner) const {
-        auto body = [&](const tbb::blocked_range<uint32_t>& r, Bins acc) {
+    template <bool C>
+    BinSet<C> bin(uint32_t begin, uint32_t end, const Binner& binner) const {
+        auto body = [&](const tbb::blocked_range<uint32_t>& r, BinSet<C> acc) {
             for (uint32_t i = r.begin(); i < r.end(); ++i) {
                 const Vec3f c = p_[i].centroid();
                 Bounds3f pb{p_[i].lo, p_[i].hi};
                 for (int a = 0; a < 3; ++a) {
                     const int k = binner.bin(c[a], a);
                     acc.b[a][k].extend(pb);
+                    if constexpr (C) acc.c[a][k].extend(c);
                     ++acc.n[a][k];
                 }
             }
             return acc;
         };
-        if (end - begin < kParallelBin) return body({begin, end}, Bins{});
+        if (end - begin < kParallelBin) return body({begin, end}, BinSet<C>{});
         return tbb::parallel_reduce(
-            tbb::blocked_range<uint32_t>(begin, end, 8192), Bins{}, body,
-            [](Bins a, const Bins& b) {
+            tbb::blocked_range<uint32_t>(begin, end, 8192), BinSet<C>{}, body,
+            [](BinSet<C> a, const BinSet<C>& b) {
                 a.merge(b);
                 return a;
             });
@@ -206,8 +193,15 @@ private:
 
     /// Binned SAH. Returns false for "make a leaf". Above leaf_size a split is forced:
     /// the best binned one, or an object median when all centroids coincide.
-    bool sah_split(uint32_t begin, uint32_t end, const RangeInfo& ri, uint32_t& mid,
-                   int& axis) {
+    /// On a binned split also returns the children's RangeInfo, read off the bins.
+    bool sah_split(uint32_t begin, uint32_t end, const RangeInfo& ri, uint32_t& mid, int& axis,
+                   RangeInfo (&kids)[2], bool& kids_known) {
+        return end - begin >= kChildInfoFromBins ? sah_split<true>(begin, end, ri, mid, axis, kids, kids_known)
+                                                 : sah_split<false>(begin, end, ri, mid, axis, kids, kids_known);
+    }
+    template <bool C>
+    bool sah_split(uint32_t begin, uint32_t end, const RangeInfo& ri, uint32_t& mid, int& axis,
+                   RangeInfo (&kids)[2], bool& kids_known) {
         const uint32_t n = end - begin;
         const Vec3f cext = ri.cbounds.diagonal();
         if (!(max_component(cext) > 0.0f)) {  // all centroids coincide: no plane separates
@@ -216,37 +210,12 @@ private:
             return true;
         }
         const Binner binner(ri.cbounds);
-        const Bins bins = bin(begin, end, binner);
-        double best = std::numeric_limits<double>::infinity();
-        int best_axis = -1, best_split = 0;
-        for (int a = 0; a < 3; ++a) {
-            if (!(cext[a] > 0.0f)) continue;
-            // Right-to-left sweep: area and count of everything at or right of bin i.
-            float right_area[kBins];
-            uint32_t right_count[kBins];
-            Bounds3f acc;
-            uint32_t cnt = 0;
-            for (int i = kBins - 1; i > 0; --i) {
-                acc.extend(bins.b[a][i]);
-                cnt += bins.n[a][i];
-                right_area[i] = acc.surface_area();
-                right_count[i] = cnt;
-            }
-            acc = Bounds3f{};
-            cnt = 0;
-            for (int i = 1; i < kBins; ++i) {
-                acc.extend(bins.b[a][i - 1]);
-                cnt += bins.n[a][i - 1];
-                if (cnt == 0 || right_count[i] == 0) continue;
-                const double cost = double(acc.surface_area()) * blocks(cnt) +
-                                    double(right_area[i]) * blocks(right_count[i]);
-                if (cost < best) {
-                    best = cost;
-                    best_axis = a;
-                    best_split = i;
-                }
-            }
-        }
+        const BinSet<C> bins = bin<C>(begin, end, binner);
+        const bool usable[3] = {cext[0] > 0.0f, cext[1] > 0.0f, cext[2] > 0.0f};
+        Sweep sw;
+        binned::sweep(bins.b, bins.n, bins.n, usable, sw, false);
+        const double best = sw.cost;
+        const int best_axis = sw.axis, best_split = sw.split;
         if (best_axis < 0) {  // cannot happen with a positive extent; be safe anyway
             if (n <= leaf_size_) return false;
             mid = median_split(begin, end, axis);
@@ -261,7 +230,20 @@ private:
             return binner.bin(q.centroid()[best_axis], best_axis) < best_split;
         });
         mid = uint32_t(it - p_.begin());
-        if (mid == begin || mid == end) mid = median_split(begin, end, axis);  // paranoia
+        if (mid == begin || mid == end) {  // paranoia
+            mid = median_split(begin, end, axis);
+            return true;
+        }
+        // The bins hold exactly the primitives each side received: their union is the
+        // same min/max a pass over the children would compute, bit for bit.
+        if constexpr (C) {
+            for (int i = 0; i < kBins; ++i) {
+                RangeInfo& k = kids[i < best_split ? 0 : 1];
+                k.bounds.extend(bins.b[best_axis][i]);
+                k.cbounds.extend(bins.c[best_axis][i]);
+            }
+            kids_known = true;
+        }
         return true;
     }
 

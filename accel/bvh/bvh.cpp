@@ -5,6 +5,9 @@
 #include <algorithm>
 #include <chrono>
 #include <cstring>
+#include <unordered_map>
+
+#include <tbb/task_arena.h>
 
 #include "accel/bvh/base.h"
 #include "accel/bvh/dispatch.h"
@@ -33,11 +36,14 @@ void BvhBase::build(std::span<const GeometryView> geometry, const AccelOptions& 
     leaf_size_ = std::clamp<uint32_t>(opt.leaf_size, 1u, Node::kCountMask);
     const std::vector<PrimRef> refs = collect_primitives(geometry_, info_.dropped);
     for (const PrimRef& r : refs) has_spheres_ |= geometry_[r.geom].type == GeometryType::Spheres;
-    tree_ = build_binary(geometry_, refs, opt.split, leaf_size_, opt.build_threads);
-    wide_ = collapse(tree_, geometry_, opt.triangle);
+    tree_ = opt.split == BvhSplit::Sbvh ? build_sbvh(geometry_, refs, leaf_size_, opt.build_threads)
+                                        : build_binary(geometry_, refs, opt.split, leaf_size_, opt.build_threads);
+    // The block packing runs in parallel: on the build's threads, like the build.
+    tbb::task_arena arena(opt.build_threads > 0 ? opt.build_threads : tbb::task_arena::automatic);
+    arena.execute([&] { wide_ = collapse(tree_, geometry_, opt.triangle); });
 
     const TreeFacts f = tree_facts(tree_.nodes);
-    const char* split = opt.split == BvhSplit::Sah ? "sah" : "midpoint";
+    const char* split = opt.split == BvhSplit::Sah ? "sah" : opt.split == BvhSplit::Sbvh ? "sbvh" : "midpoint";
     const char* test = opt.triangle == TriangleTest::Watertight ? "watertight" : "fast";
     info_.backend = std::string("custom(") + split + ", " + test + ", " + kernel + ")";
     info_.primitives = refs.size();
@@ -81,7 +87,15 @@ std::optional<BvhReport> inspect_bvh(const Accelerator& accel) {
     r.max_leaf_size = f.max_leaf;
     r.leaf_size_limit = b->leaf_size_;
     r.sah_cost = f.sah_cost;
-    r.primitives = order.size();
+    const bool spatial = b->tree_.spatial;
+    r.references = order.size();
+    auto overlaps = [](const Bounds3f& a, const Bounds3f& c) {
+        return !(a.hi.x < c.lo.x || c.hi.x < a.lo.x || a.hi.y < c.lo.y || c.hi.y < a.lo.y || a.hi.z < c.lo.z ||
+                 c.hi.z < a.lo.z);
+    };
+    // sbvh: the leaf boxes that hold each triangle, for the coverage check below.
+    std::unordered_map<uint64_t, std::vector<uint32_t>> leaves_of;
+    auto key = [](const PrimRef& p) { return uint64_t(p.geom) << 32 | p.prim; };
 
     // Every leaf-order slot covered by exactly one leaf, and the slots hold exactly the
     // primitives collect_primitives keeps (each once).
@@ -100,7 +114,9 @@ std::optional<BvhReport> inspect_bvh(const Accelerator& accel) {
             for (uint32_t k = n.offset; k < n.offset + n.count(); ++k) {
                 ++covered[k];
                 const PrimRef ref = order[k];
-                if (!nb.contains(primitive_bounds(b->geometry_[ref.geom], ref.prim)))
+                const Bounds3f pb = primitive_bounds(b->geometry_[ref.geom], ref.prim);
+                if (spatial) leaves_of[key(ref)].push_back(i);
+                if (spatial ? !overlaps(nb, pb) : !nb.contains(pb))
                     fail(r.leaves_contain_prims,
                          "leaf " + std::to_string(i) + " does not contain prim " + std::to_string(ref.prim));
             }
@@ -124,10 +140,45 @@ std::optional<BvhReport> inspect_bvh(const Accelerator& accel) {
     auto less = [](const PrimRef& a, const PrimRef& c) { return a.geom != c.geom ? a.geom < c.geom : a.prim < c.prim; };
     std::sort(expect.begin(), expect.end(), less);
     std::sort(got.begin(), got.end(), less);
+    if (spatial)  // duplicates are the point of spatial splits: compare the distinct set
+        got.erase(std::unique(got.begin(), got.end(),
+                              [](const PrimRef& a, const PrimRef& c) { return a.geom == c.geom && a.prim == c.prim; }),
+                  got.end());
+    r.primitives = got.size();
     const bool same_set = expect.size() == got.size() &&
                           std::equal(expect.begin(), expect.end(), got.begin(),
                                      [](const PrimRef& a, const PrimRef& c) { return a.geom == c.geom && a.prim == c.prim; });
     if (!same_set) fail(r.prims_once, "leaf primitives differ from the collected set");
+
+    // sbvh: no point of a triangle may fall outside every leaf box that holds it, or a
+    // ray through that point would miss the triangle. Points in double, boxes widened by
+    // a hair (1e-9 of the scene size) for the rounding of the barycentric sums.
+    if (spatial && !nodes.empty()) {
+        const Bounds3f root = nodes[0].bounds();
+        const double tol = 1e-9 * std::max(1.0, double(max_component(root.diagonal())));
+        for (const auto& [k, leaves] : leaves_of) {
+            const GeometryView& g = b->geometry_[uint32_t(k >> 32)];
+            if (g.type != GeometryType::Triangles) continue;
+            Vec3f v0, v1, v2;
+            triangle_vertices(g, uint32_t(k), v0, v1, v2);
+            for (int i = 0; i <= 6; ++i)
+                for (int j = 0; i + j <= 6; ++j) {
+                    const double u = i / 6.0, w = j / 6.0;
+                    double p[3];
+                    for (int a = 0; a < 3; ++a) p[a] = (1.0 - u - w) * v0[a] + u * v1[a] + w * v2[a];
+                    bool in = false;
+                    for (uint32_t li : leaves) {
+                        const Bounds3f lb = nodes[li].bounds();
+                        bool inside = true;
+                        for (int a = 0; a < 3; ++a) inside &= p[a] >= lb.lo[a] - tol && p[a] <= lb.hi[a] + tol;
+                        if ((in = inside)) break;
+                    }
+                    if (!in)
+                        fail(r.leaves_contain_prims, "prim " + std::to_string(uint32_t(k)) +
+                                                         ": a point of it lies in none of its leaves");
+                }
+        }
+    }
 
     // The wide traversal tree: every slot reached through exactly one block lane, every
     // lane box inside the box its parent lane gave, leaf lanes containing their
@@ -184,7 +235,8 @@ std::optional<BvhReport> inspect_bvh(const Accelerator& accel) {
                         ++wcovered[s];
                         const PrimRef ref = order[s];
                         const GeometryView& g = b->geometry_[ref.geom];
-                        if (!lb.contains(primitive_bounds(g, ref.prim)))
+                        if (spatial ? !overlaps(lb, primitive_bounds(g, ref.prim))
+                                    : !lb.contains(primitive_bounds(g, ref.prim)))
                             fail(r.wide_ok, "wide leaf does not contain its primitive");
                         auto lane = [&](int row) { return Vec3f(blk.p[row][0][l], blk.p[row][1][l], blk.p[row][2][l]); };
                         bool same;

@@ -35,14 +35,21 @@ std::vector<Isa> supported_isas();
 /// BuildInfo), so tests can check the build instead of trusting it.
 struct BvhReport {
     uint64_t nodes = 0, leaves = 0, primitives = 0;
+    /// Leaf slots: primitives plus the duplicates spatial splits (sbvh) made.
+    uint64_t references = 0;
     uint32_t depth = 0;          ///< nodes on the longest root-to-leaf path (root only = 1)
     uint32_t max_leaf_size = 0;  ///< largest leaf
     uint32_t leaf_size_limit = 0;///< AccelOptions::leaf_size the tree was built with
     /// SAH cost recomputed from the nodes, leaves priced per block (tree_facts, build.h).
     double sah_cost = 0.0;
-    bool prims_once = true;          ///< every collected primitive in exactly one leaf
+    /// Every collected primitive in exactly one leaf (sbvh: in at least one, and every
+    /// leaf slot in exactly one leaf).
+    bool prims_once = true;
     bool children_inside = true;     ///< every child's box inside its parent's box
-    bool leaves_contain_prims = true;///< every leaf box contains its primitives' boxes
+    /// Every leaf box contains its primitives' boxes. sbvh, whose leaves hold clipped
+    /// parts: every leaf box overlaps its primitives' boxes, and the leaf boxes holding a
+    /// triangle together cover it (checked at 28 barycentric points per triangle).
+    bool leaves_contain_prims = true;
     bool leaf_size_ok = true;        ///< no leaf above the limit, no empty leaf
     bool gathered_ok = true;         ///< leaf blocks hold the scene's vertices (or exact edges)
     bool siblings_adjacent = true;   ///< children of a node are consecutive and after it

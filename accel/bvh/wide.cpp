@@ -2,6 +2,9 @@
 // (Dammertz et al. 2008; Wald et al. 2008; blocks as Embree's triangle4, Wald et al. 2014).
 #include "accel/bvh/wide.h"
 
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+
 namespace accel::bvh {
 namespace {
 
@@ -71,15 +74,38 @@ private:
         n.count[i] = 0;
     }
 
+    /// Reserves the leaf's blocks and links them; fill() writes them later, in parallel.
     void leaf(uint32_t w, int lane, const Node& c) {
-        const uint32_t first = uint32_t(out_.blocks.size());
+        const uint32_t first = next_block_;
         const uint32_t nblocks = (c.count() + kLeafBlock - 1) / kLeafBlock;
-        bool spheres = false;
+        next_block_ += nblocks;
+        leaves_.push_back({first, c.offset, c.count()});
+        const bool spheres = g_[t_.order[c.offset].geom].type != GeometryType::Triangles;  // one type per leaf
+        out_.nodes[w].child[lane] = WideNode::kLeaf | first;
+        out_.nodes[w].count[lane] = nblocks | (spheres ? WideNode::kSpheres : 0u);
+    }
+
+public:
+    /// Packs every leaf's primitives into its blocks (independent, so in parallel).
+    void fill() {
+        out_.blocks.resize(next_block_);
+        tbb::parallel_for(tbb::blocked_range<size_t>(0, leaves_.size(), 256), [&](const tbb::blocked_range<size_t>& r) {
+            for (size_t i = r.begin(); i < r.end(); ++i) fill_leaf(leaves_[i]);
+        });
+    }
+
+private:
+    struct Leaf {
+        uint32_t first_block, offset, count;
+    };
+
+    void fill_leaf(const Leaf& f) {
+        const uint32_t nblocks = (f.count + kLeafBlock - 1) / kLeafBlock;
         for (uint32_t b = 0; b < nblocks; ++b) {
             Block blk{};
             for (int l = 0; l < 4; ++l) blk.slot[l] = Block::kNone;
-            for (uint32_t l = 0; l < 4 && b * 4 + l < c.count(); ++l) {
-                const uint32_t slot = c.offset + b * 4 + l;
+            for (uint32_t l = 0; l < 4 && b * 4 + l < f.count; ++l) {
+                const uint32_t slot = f.offset + b * 4 + l;
                 const PrimRef ref = t_.order[slot];
                 const GeometryView& g = g_[ref.geom];
                 blk.slot[l] = slot;
@@ -88,7 +114,6 @@ private:
                     triangle_vertices(g, ref.prim, v[0], v[1], v[2]);
                     if (test_ == TriangleTest::Fast) v[1] = v[1] - v[0], v[2] = v[2] - v[0];
                 } else {
-                    spheres = true;
                     v[0] = sphere_center(g, ref.prim);
                     v[1] = Vec3f(sphere_radius(g, ref.prim), 0.0f, 0.0f);
                     v[2] = Vec3f(0.0f);
@@ -96,16 +121,16 @@ private:
                 for (int k = 0; k < 3; ++k)
                     for (int a = 0; a < 3; ++a) blk.p[k][a][l] = v[k][a];
             }
-            out_.blocks.push_back(blk);
+            out_.blocks[f.first_block + b] = blk;
         }
-        out_.nodes[w].child[lane] = WideNode::kLeaf | first;
-        out_.nodes[w].count[lane] = nblocks | (spheres ? WideNode::kSpheres : 0u);
     }
 
     const BinaryTree& t_;
     std::span<const GeometryView> g_;
     TriangleTest test_;
     WideBvh& out_;
+    uint32_t next_block_ = 0;
+    std::vector<Leaf> leaves_;
 };
 
 }  // namespace
@@ -114,14 +139,13 @@ WideBvh collapse(const BinaryTree& tree, std::span<const GeometryView> geometry,
     WideBvh w;
     if (tree.nodes.empty()) return w;
     for (int k = 0; k < 6; ++k) w.root[k] = tree.nodes[0].b[k];
-    w.blocks.reserve(tree.order.size() / 2 + 1);
     Collapser c(tree, geometry, test, w);
     if (tree.nodes[0].is_leaf())
         c.lone_leaf();
     else
         c.node(0);
+    c.fill();                 // blocks: sized exactly once, no slack
     w.nodes.shrink_to_fit();  // growth left up to 2x slack (and 2 MiB rounding)
-    w.blocks.shrink_to_fit();
     return w;
 }
 

@@ -13,6 +13,7 @@
 
 #include "accel/accelerator.h"
 #include "accel/bvh/bvh.h"
+#include "accel/bvh/build.h"
 #include "accel/naive/naive.h"
 #include "renderer/camera.h"
 #include "renderer/scene_geometry.h"
@@ -109,8 +110,8 @@ class BvhScenes : public ::testing::TestWithParam<const char*> {};
 
 TEST_P(BvhScenes, InvariantsAndSahBeatsMidpoint) {
     LOAD_OR_SKIP(l, GetParam());
-    double cost[2];
-    for (BvhSplit split : {BvhSplit::Sah, BvhSplit::Midpoint}) {
+    double cost[3];
+    for (BvhSplit split : {BvhSplit::Sah, BvhSplit::Midpoint, BvhSplit::Sbvh}) {
         auto a = make_bvh(l->views(), options(split, TriangleTest::Fast));
         auto rep = inspect_bvh(*a);
         ASSERT_TRUE(rep);
@@ -120,13 +121,15 @@ TEST_P(BvhScenes, InvariantsAndSahBeatsMidpoint) {
         EXPECT_EQ(rep->primitives, a->info().primitives);
         EXPECT_EQ(a->info().primitives + a->info().dropped, l->scene.num_triangles() + l->scene.spheres.size());
         EXPECT_DOUBLE_EQ(rep->sah_cost, a->info().sah_cost);
-        cost[split == BvhSplit::Sah ? 0 : 1] = rep->sah_cost;
+        cost[int(split == BvhSplit::Sah ? 0 : split == BvhSplit::Midpoint ? 1 : 2)] = rep->sah_cost;
+        EXPECT_LE(double(rep->references), (1.0 + bvh::kSbvhBudget) * double(rep->primitives));
         std::printf("%s %s: %llu prims (%llu dropped), %llu nodes, depth %u, SAH cost %.2f, build %.1f ms\n",
                     GetParam(), a->info().backend.c_str(), (unsigned long long)a->info().primitives,
                     (unsigned long long)a->info().dropped, (unsigned long long)rep->nodes, rep->depth,
                     rep->sah_cost, a->info().build_seconds * 1e3);
     }
     EXPECT_LT(cost[0], cost[1]);
+    EXPECT_LE(cost[2], cost[0] * 1.05);  // spatial splits are only taken where the SAH gains
 }
 
 TEST_P(BvhScenes, AgreesWithNaive) {
@@ -143,7 +146,7 @@ TEST_P(BvhScenes, AgreesWithNaive) {
         std::vector<char> ref_hit(rays.size());
         TraceStats s1;
         for (size_t i = 0; i < rays.size(); ++i) ref_hit[i] = naive->intersect(rays[i], ref[i], s1);
-        for (BvhSplit split : {BvhSplit::Sah, BvhSplit::Midpoint})
+        for (BvhSplit split : {BvhSplit::Sah, BvhSplit::Midpoint, BvhSplit::Sbvh})
           for (Isa isa : supported_isas()) {  // every kernel this CPU runs (bvh_test names the rest)
             AccelOptions o = options(split, test);
             o.isa = isa;

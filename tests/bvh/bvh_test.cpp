@@ -8,10 +8,12 @@
 #include <random>
 #include <string>
 #include <thread>
+#include <utility>
 #include <vector>
 
 #include "accel/accelerator.h"
 #include "accel/bvh/bvh.h"
+#include "accel/bvh/build.h"
 #include "accel/naive/naive.h"
 #include "accel/primitive.h"
 
@@ -76,6 +78,28 @@ Mesh grid(int n, float z0 = 0.0f) {
 }
 
 /// Random triangles of size ~`size` in [-1, 1]^3 (overlapping, arbitrary orientation).
+/// A folded sheet of needles about 1000 times longer than wide, turned diagonal to every
+/// axis (as `scenegen --kind sliver`): each needle's box is almost all empty space.
+Mesh slivers(int rows, int cols) {
+    Mesh m;
+    const float s = std::sqrt(0.5f), t = std::sqrt(1.0f / 3.0f), c = std::sqrt(1.0f - t * t);
+    for (int j = 0; j <= rows; ++j)
+        for (int i = 0; i <= cols; ++i) {
+            const float u = -1.0f + 2.0f * float(i) / float(cols), v = -1.0f + 2.0f * float(j) / float(rows);
+            const float w = 0.2f * std::sin(3.0f * u + 1.7f * v);
+            const Vec3f r1(s * (u - v), s * (u + v), w);
+            m.add(Vec3f(r1.x, c * r1.y - t * r1.z, t * r1.y + c * r1.z));
+        }
+    const uint32_t n = uint32_t(cols + 1);
+    for (int j = 0; j < rows; ++j)
+        for (int i = 0; i < cols; ++i) {
+            const uint32_t q = uint32_t(j) * n + uint32_t(i);
+            m.tri(q, q + n, q + 1);
+            m.tri(q + 1, q + n, q + n + 1);
+        }
+    return m;
+}
+
 Mesh soup(int n, float size, uint32_t seed) {
     Mesh m;
     std::mt19937 rng(seed);
@@ -103,6 +127,8 @@ Spheres random_spheres(int n, uint32_t seed) {
     return s;
 }
 
+constexpr BvhSplit kSplits[] = {BvhSplit::Sah, BvhSplit::Midpoint, BvhSplit::Sbvh};
+
 AccelOptions options(BvhSplit split, TriangleTest test, uint32_t leaf_size = 4) {
     AccelOptions o;
     o.split = split;
@@ -112,7 +138,7 @@ AccelOptions options(BvhSplit split, TriangleTest test, uint32_t leaf_size = 4) 
 }
 
 std::string name(BvhSplit s, TriangleTest t) {
-    return std::string(s == BvhSplit::Sah ? "sah" : "midpoint") + "/" +
+    return std::string(s == BvhSplit::Sah ? "sah" : s == BvhSplit::Sbvh ? "sbvh" : "midpoint") + "/" +
            (t == TriangleTest::Fast ? "fast" : "watertight");
 }
 
@@ -311,10 +337,11 @@ std::vector<Isa> kernels_to_test() {
 }
 
 void agree(std::span<const GeometryView> geom, std::span<const Vec3f> targets, uint32_t seed,
-           int n_random = 400) {
+           int n_random = 400, bool fast_too = true) {
     for (TriangleTest test : {TriangleTest::Fast, TriangleTest::Watertight}) {
+        if (!fast_too && test == TriangleTest::Fast) continue;
         auto naive = make_naive(geom, options(BvhSplit::Sah, test));
-        for (BvhSplit split : {BvhSplit::Sah, BvhSplit::Midpoint})
+        for (BvhSplit split : kSplits)
           for (Isa isa : kernels_to_test()) {
             SCOPED_TRACE(name(split, test) + " " + isa_name(isa));
             AccelOptions o = options(split, test);
@@ -339,7 +366,7 @@ TEST(BvhInvariants, ProceduralMeshesBothSplitsAndLeafSizes) {
     Mesh meshes[] = {uv_sphere(40, 60, {0, 0, 0}, 1.0f), grid(30), soup(3000, 0.05f, 1)};
     for (Mesh& m : meshes) {
         GeometryView v = m.view();
-        for (BvhSplit split : {BvhSplit::Sah, BvhSplit::Midpoint})
+        for (BvhSplit split : kSplits)
             for (uint32_t leaf : {1u, 2u, 4u, 8u}) {
                 SCOPED_TRACE(name(split, TriangleTest::Fast) + " leaf " + std::to_string(leaf));
                 auto a = make_bvh({&v, 1}, options(split, TriangleTest::Fast, leaf));
@@ -370,7 +397,7 @@ TEST(BvhInvariants, CoincidentCentroidsStillRespectLeafSize) {
     uint32_t d = m.add({5, 5, 5}), e = m.add({6, 5, 5}), f = m.add({5, 6, 5});
     for (int i = 0; i < 100; ++i) m.tri(a, b, c), m.tri(d, e, f);
     GeometryView v = m.view();
-    for (BvhSplit split : {BvhSplit::Sah, BvhSplit::Midpoint}) {
+    for (BvhSplit split : kSplits) {
         auto acc = make_bvh({&v, 1}, options(split, TriangleTest::Fast, 4));
         expect_valid(*acc, 4, 200);
         std::vector<Vec3f> targets{{0.25f, 0.25f, 0.0f}, {5.25f, 5.25f, 5.0f}};
@@ -387,7 +414,7 @@ TEST(BvhInvariants, DenormalCentroidExtent) {
         m.tri(a, b, c);
     }
     GeometryView v = m.view();
-    for (BvhSplit split : {BvhSplit::Sah, BvhSplit::Midpoint}) {
+    for (BvhSplit split : kSplits) {
         auto acc = make_bvh({&v, 1}, options(split, TriangleTest::Fast, 4));
         expect_valid(*acc, 4, 50);
     }
@@ -404,7 +431,7 @@ TEST(BvhInvariants, DepthBoundedOnExponentialSpacing) {
         m.tri(a, b, c);
     }
     GeometryView v = m.view();
-    for (BvhSplit split : {BvhSplit::Sah, BvhSplit::Midpoint}) {
+    for (BvhSplit split : kSplits) {
         auto acc = make_bvh({&v, 1}, options(split, TriangleTest::Fast, 1));
         expect_valid(*acc, 1, 240);
         EXPECT_LE(acc->info().depth, 128u);
@@ -415,18 +442,59 @@ TEST(BvhInvariants, DepthBoundedOnExponentialSpacing) {
 }
 
 TEST(BvhInvariants, BuildIsIndependentOfThreadCount) {
-    Mesh m = soup(60000, 0.02f, 5);  // large enough for parallel binning and recursion
+    // Large enough for parallel binning and recursion; sbvh on slivers, where its
+    // duplicate budget is shared out between tasks.
+    Mesh soup_mesh = soup(60000, 0.02f, 5), sliver_mesh = slivers(4, 3000);
+    for (auto [split, m] : {std::pair{BvhSplit::Sah, &soup_mesh}, std::pair{BvhSplit::Sbvh, &sliver_mesh}}) {
+        SCOPED_TRACE(name(split, TriangleTest::Fast));
+        GeometryView v = m->view();
+        AccelOptions one = options(split, TriangleTest::Fast);
+        one.build_threads = 1;
+        AccelOptions all = one;
+        all.build_threads = 0;
+        auto a = make_bvh({&v, 1}, one);
+        auto b = make_bvh({&v, 1}, all);
+        expect_valid(*a, 4, v.num_prims);
+        expect_valid(*b, 4, v.num_prims);
+        EXPECT_EQ(inspect_bvh(*a)->references, inspect_bvh(*b)->references);
+        EXPECT_EQ(a->info().nodes, b->info().nodes);
+        EXPECT_EQ(a->info().sah_cost, b->info().sah_cost);
+    }
+}
+
+TEST(BvhSbvh, SliversAreSplitWithinTheBudgetAndCovered) {
+    Mesh m = slivers(2, 1000);
     GeometryView v = m.view();
-    AccelOptions one = options(BvhSplit::Sah, TriangleTest::Fast);
-    one.build_threads = 1;
-    AccelOptions all = one;
-    all.build_threads = 0;
-    auto a = make_bvh({&v, 1}, one);
-    auto b = make_bvh({&v, 1}, all);
-    expect_valid(*a, 4, v.num_prims);
-    expect_valid(*b, 4, v.num_prims);
-    EXPECT_EQ(a->info().nodes, b->info().nodes);
-    EXPECT_EQ(a->info().sah_cost, b->info().sah_cost);
+    auto sah = make_bvh({&v, 1}, options(BvhSplit::Sah, TriangleTest::Fast));
+    auto sbvh = make_bvh({&v, 1}, options(BvhSplit::Sbvh, TriangleTest::Fast));
+    expect_valid(*sbvh, 4, v.num_prims);  // includes: every triangle covered by its leaves
+    auto rep = inspect_bvh(*sbvh);
+    ASSERT_TRUE(rep);
+    EXPECT_EQ(rep->primitives, v.num_prims);
+    // Spatial splits happened here (the needles' boxes overlap), within the budget.
+    EXPECT_GT(rep->references, rep->primitives * 11 / 10);
+    EXPECT_LE(double(rep->references), (1.0 + bvh::kSbvhBudget) * double(rep->primitives));
+    EXPECT_LT(sbvh->info().sah_cost, 0.8 * sah->info().sah_cost);
+    EXPECT_NE(sbvh->info().backend.find("sbvh"), std::string::npos);
+    // Fewer primitive tests for rays across the sheet: the point of splitting.
+    TraceStats s1, s2;
+    s1.counting = s2.counting = true;
+    for (const Ray& r : make_rays(sah->bounds(), mesh_targets(m, 300), 21, 0)) {
+        Hit h;
+        sah->intersect(r, h, s1);
+        sbvh->intersect(r, h, s2);
+    }
+    EXPECT_LT(s2.prim_tests, s1.prim_tests);
+}
+
+TEST(BvhSbvh, SliversAgreeWithNaive) {
+    // Watertight only: on rays through these needles' vertices the fast (Möller–Trumbore)
+    // test's t is off by more than the box test's slack, so every split, sah and midpoint
+    // alike, misses 3-5 of 700 such hits that naive finds (measured). Woop's test keeps
+    // its hits inside the boxes, and there all splits agree with naive exactly.
+    Mesh m = slivers(2, 600);
+    GeometryView v = m.view();
+    agree({&v, 1}, mesh_targets(m, 300), 22, 400, false);
 }
 
 TEST(BvhAgreement, UvSphere) {
@@ -444,7 +512,7 @@ TEST(BvhAgreement, GridWithSharedEdgesAndFlatBoxes) {
     // coming down onto the grid and crossing shared edges.
     auto naive = make_naive({&v, 1}, {});
     for (TriangleTest test : {TriangleTest::Fast, TriangleTest::Watertight})
-        for (BvhSplit split : {BvhSplit::Sah, BvhSplit::Midpoint}) {
+        for (BvhSplit split : kSplits) {
             SCOPED_TRACE(name(split, test));
             auto ref = make_naive({&v, 1}, options(split, test));
             auto bvh = make_bvh({&v, 1}, options(split, test));
@@ -556,7 +624,7 @@ TEST(BvhAgreement, DegenerateTrianglesDroppedAndCounted) {
     m.tri(inf, a, b);                                                      // infinite vertex
     m.tri(a, b, 100000);                                                   // out of range
     GeometryView v = m.view();
-    for (BvhSplit split : {BvhSplit::Sah, BvhSplit::Midpoint}) {
+    for (BvhSplit split : kSplits) {
         auto bvh = make_bvh({&v, 1}, options(split, TriangleTest::Watertight));
         EXPECT_EQ(bvh->info().dropped, 5u);
         EXPECT_EQ(bvh->info().primitives, 32u);
@@ -573,7 +641,7 @@ TEST(BvhAgreement, EmptyScenesMissEverything) {
     Mesh none;
     std::vector<std::vector<GeometryView>> cases = {{}, {none.view()}, {degenerate.view()}};
     for (auto& geom : cases)
-        for (BvhSplit split : {BvhSplit::Sah, BvhSplit::Midpoint}) {
+        for (BvhSplit split : kSplits) {
             auto bvh = make_bvh(geom, options(split, TriangleTest::Fast));
             EXPECT_EQ(bvh->info().primitives, 0u);
             EXPECT_TRUE(bvh->bounds().empty());
