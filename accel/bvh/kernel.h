@@ -78,28 +78,38 @@ inline __m256 splat<__m256>(float x) { return _mm256_set1_ps(x); }
 #endif
 
 /// Per-ray constants of a node test over vectors V: origin, inverse direction, the
-/// accumulators' start values and the near/far rows of Planes.
+/// near accumulator's start value, the far-distance scale and the near/far rows of
+/// Planes. (The far accumulator starts at the segment's end, splat per node: no
+/// constant.) Nine vectors: with the leaf test's direction they fit AVX2's 16 registers.
 template <class V>
 struct BoxConstants {
-    V o[3], inv[3], t_min, inf, scale;
+    V o[3], inv[3], t_min, scale;
     int nx, ny, nz, fx, fy, fz;
     BoxConstants(const Planes& p, float tmin) {
         for (int a = 0; a < 3; ++a) o[a] = splat<V>(p.org[a]), inv[a] = splat<V>(p.inv[a]);
-        t_min = splat<V>(tmin), inf = splat<V>(kInfinity), scale = splat<V>(kFarScale);
+        t_min = splat<V>(tmin), scale = splat<V>(kFarScale);
         nx = p.near[0], ny = p.near[1], nz = p.near[2], fx = p.far[0], fy = p.far[1], fz = p.far[2];
     }
 };
 
+inline __m128 low4(__m128 x) { return x; }
+#ifdef __AVX__
+inline __m128 low4(__m256 x) { return _mm256_castps256_ps128(x); }
+#endif
+
 /// Four-lane leaf test. SSE2 is part of every x86-64, so all ISAs share this code (the
 /// wider files just encode it with VEX); -ffp-contract=off on every kernel file keeps
 /// the arithmetic that of triangle.h, so all ISAs and naive return the same t, u, v.
+/// Origin and t_min are the low lanes of the node test's broadcasts, so the wider ISAs
+/// keep one register for both.
 struct LeafRay {
     __m128 o[3], d[3], t_min;
     int kx, ky, kz;
     __m128 sx, sy, sz;
-    LeafRay(const Ray& r, const WatertightRay& wr) {
-        for (int a = 0; a < 3; ++a) o[a] = _mm_set1_ps(r.org[a]), d[a] = _mm_set1_ps(r.dir[a]);
-        t_min = _mm_set1_ps(r.t_min);
+    template <class V>
+    LeafRay(const Ray& r, const WatertightRay& wr, const BoxConstants<V>& box) {
+        for (int a = 0; a < 3; ++a) o[a] = low4(box.o[a]), d[a] = _mm_set1_ps(r.dir[a]);
+        t_min = low4(box.t_min);
         kx = wr.kx, ky = wr.ky, kz = wr.kz;
         sx = _mm_set1_ps(wr.sx), sy = _mm_set1_ps(wr.sy), sz = _mm_set1_ps(wr.sz);
     }
@@ -114,9 +124,20 @@ inline unsigned filled(const Block& b) {
     return unsigned(_mm_movemask_ps(_mm_castsi128_ps(_mm_cmpeq_epi32(s, none)))) ^ 0xFu;
 }
 
+/// The result of one four-lane leaf test: the lanes hit in [t_min, t_max] and their
+/// t, u, v. Inlined, so an occlusion query that reads only the mask computes no more.
+struct Lanes {
+    unsigned mask;
+    __m128 t, u, v;
+    unsigned store(float* tt, float* uu, float* vv) const {
+        if (mask) _mm_storeu_ps(tt, t), _mm_storeu_ps(uu, u), _mm_storeu_ps(vv, v);
+        return mask;
+    }
+};
+
 /// Möller–Trumbore on four triangles with precomputed edges; the same operations, in
-/// the same order, as intersect_triangle_mt. Returns the mask of lanes hit in [t_min, t].
-inline unsigned tri4_mt(const Block& b, const LeafRay& r, float t_max, float* tt, float* uu, float* vv) {
+/// the same order, as intersect_triangle_mt.
+inline Lanes tri4_mt(const Block& b, const LeafRay& r, float t_max) {
     const __m128 e1x = ld(b.p[1][0]), e1y = ld(b.p[1][1]), e1z = ld(b.p[1][2]);
     const __m128 e2x = ld(b.p[2][0]), e2y = ld(b.p[2][1]), e2z = ld(b.p[2][2]);
     const __m128 dx = r.d[0], dy = r.d[1], dz = r.d[2];
@@ -142,15 +163,13 @@ inline unsigned tri4_mt(const Block& b, const LeafRay& r, float t_max, float* tt
     ok = _mm_and_ps(ok, _mm_and_ps(_mm_cmpge_ps(u, zero), _mm_cmple_ps(u, one)));
     ok = _mm_and_ps(ok, _mm_and_ps(_mm_cmpge_ps(v, zero), _mm_cmple_ps(_mm_add_ps(u, v), one)));
     ok = _mm_and_ps(ok, _mm_and_ps(_mm_cmpge_ps(t, r.t_min), _mm_cmple_ps(t, _mm_set1_ps(t_max))));
-    const unsigned mask = unsigned(_mm_movemask_ps(ok)) & filled(b);
-    if (mask) _mm_storeu_ps(tt, t), _mm_storeu_ps(uu, u), _mm_storeu_ps(vv, v);
-    return mask;
+    return {unsigned(_mm_movemask_ps(ok)) & filled(b), t, u, v};
 }
 
 /// Woop 2013 on four triangles; the same operations as intersect_triangle_wt, including
 /// its double-precision retry of an edge function that rounds to exactly zero (done per
 /// lane, only for the rare lanes that need it).
-inline unsigned tri4_wt(const Block& b, const LeafRay& r, float t_max, float* tt, float* uu, float* vv) {
+inline Lanes tri4_wt(const Block& b, const LeafRay& r, float t_max) {
     __m128 X[3], Y[3], Z[3];
     for (int k = 0; k < 3; ++k) {
         const __m128 ax = _mm_sub_ps(ld(b.p[k][r.kx]), r.o[r.kx]);
@@ -190,22 +209,47 @@ inline unsigned tri4_wt(const Block& b, const LeafRay& r, float t_max, float* tt
     const __m128 t = _mm_mul_ps(T, inv);
     __m128 ok = _mm_andnot_ps(_mm_and_ps(neg, pos), _mm_cmpneq_ps(det, zero));
     ok = _mm_and_ps(ok, _mm_and_ps(_mm_cmpge_ps(t, r.t_min), _mm_cmple_ps(t, _mm_set1_ps(t_max))));
-    const unsigned mask = unsigned(_mm_movemask_ps(ok)) & live;
-    if (mask) {
-        _mm_storeu_ps(tt, t);
-        _mm_storeu_ps(uu, _mm_mul_ps(V, inv));
-        _mm_storeu_ps(vv, _mm_mul_ps(W, inv));
-    }
-    return mask;
+    return {unsigned(_mm_movemask_ps(ok)) & live, t, _mm_mul_ps(V, inv), _mm_mul_ps(W, inv)};
 }
 
-/// Returns the leaf-order slot of the closest (AnyHit: some) primitive hit in
-/// [ray.t_min, t], or Block::kNone, shrinking t as hits are found.
+template <TriangleTest Test>
+inline Lanes tri4(const Block& b, const LeafRay& r, float t_max) {
+    if constexpr (Test == TriangleTest::Watertight) return tri4_wt(b, r, t_max);
+    return tri4_mt(b, r, t_max);
+}
+
+/// Sphere in lane l of a sphere block (centre in p[0], radius in p[1][0]) hit in
+/// [ray.t_min, t]; its distance in ts.
+inline bool sphere_lane(const Block& b, int l, const Ray& ray, float t, float& ts) {
+    return intersect_sphere(ray, Vec3f(b.p[0][0][l], b.p[0][1][l], b.p[0][2][l]), b.p[1][0][l], t, ts);
+}
+
+/// Portable child selection for policies without a vector form (SSE2): the hit lane
+/// with the smallest entry distance, and the other hit lanes pushed in lane order.
+inline int nearest_scalar(const float* dist, unsigned mask) {
+    int best = __builtin_ctz(mask);
+    for (mask &= mask - 1; mask; mask &= mask - 1) {
+        const int i = __builtin_ctz(mask);
+        best = dist[i] < dist[best] ? i : best;
+    }
+    return best;
+}
+inline unsigned push_scalar(const WideNode& n, unsigned mask, uint32_t* ref, uint32_t* count) {
+    unsigned k = 0;
+    for (; mask; mask &= mask - 1, ++k) {
+        const int i = __builtin_ctz(mask);
+        ref[k] = n.child[i], count[k] = n.count[i];
+    }
+    return k;
+}
+
+/// Returns the leaf-order slot of the closest primitive hit in [ray.t_min, t], or
+/// Block::kNone, shrinking t as hits are found.
 ///
 /// Counting (only when Count; the timed path is its own instantiation and counts
 /// nothing): nodes_visited = 1 for the scene box + 1 per wide node whose child boxes
 /// are tested; prim_tests = filled lanes of every leaf block tested.
-template <class P, TriangleTest Test, bool AnyHit, bool Count, bool HasSpheres>
+template <class P, TriangleTest Test, bool Count, bool HasSpheres>
 uint32_t traverse(const WideBvh& w, const Ray& ray_in, float& t_io, float& u_out, float& v_out,
                   TraceStats& stats) {
     if (w.nodes.empty()) return Block::kNone;
@@ -225,8 +269,8 @@ uint32_t traverse(const WideBvh& w, const Ray& ray_in, float& t_io, float& u_out
     // (most camera rays around a lone object) before any SIMD setup.
     if (!pl.hit(w.root, ray.t_min, t)) return finish();
     const WatertightRay wr = Test == TriangleTest::Watertight ? WatertightRay(ray.dir) : WatertightRay();
-    const LeafRay lr(ray, wr);
     const typename P::Box box(pl, ray.t_min);
+    const LeafRay lr(ray, wr, box);
     const WideNode* nodes = w.nodes.data();
     const Block* blocks = w.blocks.data();
 
@@ -248,23 +292,13 @@ uint32_t traverse(const WideBvh& w, const Ray& ray_in, float& t_io, float& u_out
                 if (HasSpheres && (count & WideNode::kSpheres)) {
                     for (int l = 0; l < 4 && b->slot[l] != Block::kNone; ++l) {
                         float ts;
-                        const Vec3f c(b->p[0][0][l], b->p[0][1][l], b->p[0][2][l]);
-                        if (intersect_sphere(ray, c, b->p[1][0][l], t, ts)) {
-                            t = ts, u = v = 0.0f, found = b->slot[l];
-                            if constexpr (AnyHit) return finish();
-                        }
+                        if (sphere_lane(*b, l, ray, t, ts)) t = ts, u = v = 0.0f, found = b->slot[l];
                     }
                     continue;
                 }
                 alignas(16) float tt[4], uu[4], vv[4];
-                unsigned hit = Test == TriangleTest::Watertight ? tri4_wt(*b, lr, t, tt, uu, vv)
-                                                                : tri4_mt(*b, lr, t, tt, uu, vv);
+                unsigned hit = tri4<Test>(*b, lr, t).store(tt, uu, vv);
                 if (!hit) continue;
-                if constexpr (AnyHit) {
-                    const int l = __builtin_ctz(hit);
-                    t = tt[l], u = uu[l], v = vv[l], found = b->slot[l];
-                    return finish();
-                }
                 // In lane order, each lane accepted if not beyond the best so far: what
                 // the scalar loop over the same triangles would keep.
                 do {
@@ -284,24 +318,6 @@ uint32_t traverse(const WideBvh& w, const Ray& ray_in, float& t_io, float& u_out
                 if (!mask) {  // one child hit: no stack traffic at all
                     ref = n.child[i];
                     count = n.count[i];
-                    continue;
-                }
-                if constexpr (AnyHit) {
-                    // Any hit ends the query: enter the nearest child (most likely to
-                    // hold the occluder), push the rest unsorted (sorting measured slower).
-                    uint32_t best = sp;
-                    stack[sp++] = {n.child[i], n.count[i], dist[i]};
-                    do {
-                        i = __builtin_ctz(mask);
-                        mask &= mask - 1;
-                        if (dist[i] < stack[best].t) best = sp;
-                        stack[sp++] = {n.child[i], n.count[i], dist[i]};
-                    } while (mask);
-                    // Swap the nearest to the top, then pop it.
-                    std::swap(stack[best], stack[sp - 1]);
-                    --sp;
-                    ref = stack[sp].ref;
-                    count = stack[sp].count;
                     continue;
                 }
                 int j = __builtin_ctz(mask);
@@ -349,6 +365,71 @@ uint32_t traverse(const WideBvh& w, const Ray& ray_in, float& t_io, float& u_out
     }
 }
 
+/// Any-hit query: true when some primitive is hit in [ray.t_min, ray.t_max]. Its own
+/// function, not a flag of traverse: the segment never shrinks, so the stack holds only
+/// child references (no distances, no culling on pop), children are pushed by the
+/// policy's branch-free compaction (P::push), and the leaf test's t, u, v are dead code.
+/// Order: the nearest hit child is entered first (P::nearest, branch-free), the others
+/// stay in lane order; a full sort measured slower for shadow rays (RESULTS.md).
+/// Counting as in traverse.
+template <class P, TriangleTest Test, bool Count, bool HasSpheres>
+bool occlude(const WideBvh& w, const Ray& ray_in, TraceStats& stats) {
+    if (w.nodes.empty()) return false;
+    const Ray ray = ray_in;
+    const float t = ray.t_max;
+    uint64_t boxes = 1, tests = 0;
+    const auto finish = [&](bool hit) {
+        if constexpr (Count) stats.nodes_visited += boxes, stats.prim_tests += tests;
+        return hit;
+    };
+    const Planes pl(ray);
+    if (!pl.hit(w.root, ray.t_min, t)) return finish(false);
+    const WatertightRay wr = Test == TriangleTest::Watertight ? WatertightRay(ray.dir) : WatertightRay();
+    const typename P::Box box(pl, ray.t_min);
+    const LeafRay lr(ray, wr, box);
+    const WideNode* nodes = w.nodes.data();
+    const Block* blocks = w.blocks.data();
+    // P::push stores a whole vector of kWidth references; the slack keeps the last one
+    // inside the arrays.
+    constexpr uint32_t kEntries = (kWidth - 1) * kStackSize + kWidth;
+    alignas(32) uint32_t stack_ref[kEntries], stack_count[kEntries];
+    uint32_t sp = 0;
+    uint32_t ref = 0, count = 0;
+    for (;;) {
+        if (ref & WideNode::kLeaf) {
+            const Block* b = blocks + (ref & ~WideNode::kLeaf);
+            const Block* end = b + (count & ~WideNode::kSpheres);
+            for (; b != end; ++b) {
+                if constexpr (Count) tests += unsigned(__builtin_popcount(filled(*b)));
+                if (HasSpheres && (count & WideNode::kSpheres)) {
+                    float ts;
+                    for (int l = 0; l < 4 && b->slot[l] != Block::kNone; ++l)
+                        if (sphere_lane(*b, l, ray, t, ts)) return finish(true);
+                    continue;
+                }
+                if (tri4<Test>(*b, lr, t).mask) return finish(true);
+            }
+        } else {
+            const WideNode& n = nodes[ref];
+            if constexpr (Count) ++boxes;
+            alignas(32) float dist[kWidth];
+            unsigned mask = P::test(n, box, t, dist);
+            if (mask) {
+                const int i = mask & (mask - 1) ? P::nearest(dist, mask) : __builtin_ctz(mask);
+                ref = n.child[i];
+                count = n.count[i];
+                mask &= ~(1u << i);
+                if (mask) sp += P::push(n, mask, stack_ref + sp, stack_count + sp);
+                continue;
+            }
+        }
+        if (sp == 0) return finish(false);
+        --sp;
+        ref = stack_ref[sp];
+        count = stack_count[sp];
+    }
+}
+
 /// The accelerator for one ISA and triangle test; intersect/occluded are the only
 /// virtual calls. The counting instantiation runs only when the caller asks for counts.
 template <class P, TriangleTest Test>
@@ -357,25 +438,21 @@ public:
     bool intersect(const Ray& ray, Hit& hit, TraceStats& stats) const override {
         ++stats.rays;
         float t = ray.t_max, u = 0, v = 0;
-        const uint32_t slot = run<false>(ray, t, u, v, stats);
+        const uint32_t slot = stats.counting ? (has_spheres_ ? traverse<P, Test, true, true>(wide_, ray, t, u, v, stats)
+                                                             : traverse<P, Test, true, false>(wide_, ray, t, u, v, stats))
+                              : has_spheres_ ? traverse<P, Test, false, true>(wide_, ray, t, u, v, stats)
+                                             : traverse<P, Test, false, false>(wide_, ray, t, u, v, stats);
         if (slot == Block::kNone) return false;
         finish(slot, ray, t, u, v, hit);
         return true;
     }
     bool occluded(const Ray& ray, TraceStats& stats) const override {
         ++stats.shadow_rays;
-        float t = ray.t_max, u, v;
-        return run<true>(ray, t, u, v, stats) != Block::kNone;
-    }
-
-private:
-    template <bool AnyHit>
-    uint32_t run(const Ray& ray, float& t, float& u, float& v, TraceStats& stats) const {
         if (stats.counting)
-            return has_spheres_ ? traverse<P, Test, AnyHit, true, true>(wide_, ray, t, u, v, stats)
-                                : traverse<P, Test, AnyHit, true, false>(wide_, ray, t, u, v, stats);
-        return has_spheres_ ? traverse<P, Test, AnyHit, false, true>(wide_, ray, t, u, v, stats)
-                            : traverse<P, Test, AnyHit, false, false>(wide_, ray, t, u, v, stats);
+            return has_spheres_ ? occlude<P, Test, true, true>(wide_, ray, stats)
+                                : occlude<P, Test, true, false>(wide_, ray, stats);
+        return has_spheres_ ? occlude<P, Test, false, true>(wide_, ray, stats)
+                            : occlude<P, Test, false, false>(wide_, ray, stats);
     }
 };
 

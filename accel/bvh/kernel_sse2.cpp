@@ -23,12 +23,15 @@ struct Sse2 {
             const __m128 tfy = _mm_mul_ps(_mm_sub_ps(_mm_load_ps(n.b[r.fy] + q), r.o[1]), r.inv[1]);
             const __m128 tfz = _mm_mul_ps(_mm_sub_ps(_mm_load_ps(n.b[r.fz] + q), r.o[2]), r.inv[2]);
             const __m128 t0 = _mm_max_ps(tnx, _mm_max_ps(tny, _mm_max_ps(tnz, r.t_min)));
-            const __m128 t1f = _mm_min_ps(tfx, _mm_min_ps(tfy, _mm_min_ps(tfz, r.inf)));
-            const __m128 t1 = _mm_mul_ps(_mm_min_ps(t1f, vt), r.scale);
+            const __m128 t1 = _mm_mul_ps(_mm_min_ps(tfx, _mm_min_ps(tfy, _mm_min_ps(tfz, vt))), r.scale);
             mask |= unsigned(_mm_movemask_ps(_mm_cmple_ps(t0, t1))) << q;
             _mm_store_ps(dist + q, t0);
         }
         return mask;
+    }
+    static int nearest(const float* dist, unsigned mask) { return nearest_scalar(dist, mask); }
+    static unsigned push(const WideNode& n, unsigned mask, uint32_t* ref, uint32_t* count) {
+        return push_scalar(n, mask, ref, count);
     }
 };
 

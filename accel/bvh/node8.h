@@ -3,6 +3,23 @@
 // mask: movemask on AVX2, a mask-register compare on AVX-512).
 #pragma once
 
+#ifndef __AVX512VL__
+/// Lane compaction for AVX2, which has no compress instruction: for each 8-bit mask, the
+/// source lanes of the set bits packed in 4-bit fields (the usual permutation-table
+/// substitute for vpcompressd; one 1 KiB table, L1-resident in a traversal loop).
+struct CompressTable {
+    uint32_t lanes[256];
+    constexpr CompressTable() : lanes() {
+        for (unsigned m = 0; m < 256; ++m) {
+            unsigned k = 0;
+            for (unsigned l = 0; l < 8; ++l)
+                if (m >> l & 1) lanes[m] |= l << (4 * k++);
+        }
+    }
+};
+inline constexpr CompressTable kCompress{};
+#endif
+
 struct Node8 {
     using Box = BoxConstants<__m256>;
     /// The subtract-then-multiply form (not an FMA of precomputed org*inv): its two
@@ -16,10 +33,45 @@ struct Node8 {
         const __m256 tfy = _mm256_mul_ps(_mm256_sub_ps(_mm256_load_ps(n.b[r.fy]), r.o[1]), r.inv[1]);
         const __m256 tfz = _mm256_mul_ps(_mm256_sub_ps(_mm256_load_ps(n.b[r.fz]), r.o[2]), r.inv[2]);
         const __m256 t0 = _mm256_max_ps(tnx, _mm256_max_ps(tny, _mm256_max_ps(tnz, r.t_min)));
-        const __m256 t1f = _mm256_min_ps(tfx, _mm256_min_ps(tfy, _mm256_min_ps(tfz, r.inf)));
-        const __m256 t1 = _mm256_mul_ps(_mm256_min_ps(t1f, _mm256_set1_ps(t)), r.scale);
+        const __m256 t1f = _mm256_min_ps(tfx, _mm256_min_ps(tfy, _mm256_min_ps(tfz, _mm256_set1_ps(t))));
+        const __m256 t1 = _mm256_mul_ps(t1f, r.scale);
         _mm256_store_ps(dist, t0);
         return PT_NODE8_MASK(t0, t1);
+    }
+
+    /// The hit lane with the smallest entry distance, without a branch per lane: a
+    /// horizontal minimum over the hit lanes (others +inf), then the first lane equal to it.
+    static int nearest(const float* dist, unsigned mask) {
+        const __m256 d = _mm256_load_ps(dist);
+#ifdef __AVX512VL__
+        const __m256 h = _mm256_mask_mov_ps(_mm256_set1_ps(kInfinity), __mmask8(mask), d);
+#else
+        const __m256i bits = _mm256_setr_epi32(1, 2, 4, 8, 16, 32, 64, 128);
+        const __m256i sel = _mm256_cmpeq_epi32(_mm256_and_si256(_mm256_set1_epi32(int(mask)), bits), bits);
+        const __m256 h = _mm256_blendv_ps(_mm256_set1_ps(kInfinity), d, _mm256_castsi256_ps(sel));
+#endif
+        __m256 m = _mm256_min_ps(h, _mm256_permute2f128_ps(h, h, 1));
+        m = _mm256_min_ps(m, _mm256_shuffle_ps(m, m, _MM_SHUFFLE(1, 0, 3, 2)));
+        m = _mm256_min_ps(m, _mm256_shuffle_ps(m, m, _MM_SHUFFLE(2, 3, 0, 1)));
+        return __builtin_ctz(unsigned(_mm256_movemask_ps(_mm256_cmp_ps(h, m, _CMP_EQ_OQ))) & mask);
+    }
+
+    /// Stores the references of the hit lanes in `mask`, in lane order, as one vector
+    /// each for child and count (the stack has kWidth entries of slack); returns how many.
+    static unsigned push(const WideNode& n, unsigned mask, uint32_t* ref, uint32_t* count) {
+        const __m256i c = _mm256_load_si256(reinterpret_cast<const __m256i*>(n.child));
+        const __m256i k = _mm256_load_si256(reinterpret_cast<const __m256i*>(n.count));
+#ifdef __AVX512VL__
+        _mm256_storeu_si256(reinterpret_cast<__m256i*>(ref), _mm256_maskz_compress_epi32(__mmask8(mask), c));
+        _mm256_storeu_si256(reinterpret_cast<__m256i*>(count), _mm256_maskz_compress_epi32(__mmask8(mask), k));
+#else
+        // permutevar8x32 reads only the low three bits of each index.
+        const __m256i sel = _mm256_srlv_epi32(_mm256_set1_epi32(int(kCompress.lanes[mask])),
+                                              _mm256_setr_epi32(0, 4, 8, 12, 16, 20, 24, 28));
+        _mm256_storeu_si256(reinterpret_cast<__m256i*>(ref), _mm256_permutevar8x32_epi32(c, sel));
+        _mm256_storeu_si256(reinterpret_cast<__m256i*>(count), _mm256_permutevar8x32_epi32(k, sel));
+#endif
+        return unsigned(__builtin_popcount(mask));
     }
 };
 
