@@ -52,6 +52,9 @@ using namespace binned;
 constexpr uint32_t kParallelBuild = 4096;
 // Below this size binning is one loop; from it on, a parallel reduction.
 constexpr uint32_t kParallelBin = 32768;
+// From this size on a range's bins are all cleared and updated without a test
+// (bin_dense); below it only the bins used are written (SparseBins).
+constexpr uint32_t kDenseBins = 256;
 
 // The binning and partition loops below use SSE2 (the x86-64 baseline, so no kernel
 // dispatch): a box is two 4-float registers, one min and one max per box update instead
@@ -82,14 +85,14 @@ struct Binner4 {
     __m128 lo, scale;
     explicit Binner4(const Binner& b)
         : lo(_mm_setr_ps(b.lo[0], b.lo[1], b.lo[2], 0.0f)), scale(_mm_setr_ps(b.scale[0], b.scale[1], b.scale[2], 0.0f)) {}
-    void bins(__m128 c, int (&k)[4]) const {
+    __m128i bins(__m128 c) const {
         const __m128 f = _mm_mul_ps(_mm_sub_ps(c, lo), scale);
         const __m128i last = _mm_set1_epi32(kBins - 1);
         const __m128i in = _mm_castps_si128(_mm_cmplt_ps(f, _mm_set1_ps(float(kBins - 1))));
-        __m128i i = _mm_or_si128(_mm_and_si128(in, _mm_cvttps_epi32(f)), _mm_andnot_si128(in, last));
-        i = _mm_and_si128(i, _mm_castps_si128(_mm_cmpgt_ps(f, _mm_setzero_ps())));  // !(f > 0): bin 0
-        _mm_storeu_si128(reinterpret_cast<__m128i*>(k), i);
+        const __m128i i = _mm_or_si128(_mm_and_si128(in, _mm_cvttps_epi32(f)), _mm_andnot_si128(in, last));
+        return _mm_and_si128(i, _mm_castps_si128(_mm_cmpgt_ps(f, _mm_setzero_ps())));  // !(f > 0): bin 0
     }
+    void bins(__m128 c, int (&k)[4]) const { _mm_storeu_si128(reinterpret_cast<__m128i*>(k), bins(c)); }
 };
 
 /// A box without default initialisers: a bin's box is written when its first primitive
@@ -336,6 +339,12 @@ private:
         } else if (split_ == BvhSplit::Midpoint) {
             d.leaf = n <= leaf_size_;
             if (!d.leaf) d.mid = midpoint_split(begin, end, ri.cbounds, axis);
+        } else if (n <= leaf_size_ && kCostIntersect * blocks(n) <= kCostTraversal) {
+            // The SAH cannot split this range: any split costs C_trav plus something
+            // non-negative, at least the one block's test the leaf costs. Every path of
+            // sah_split ends in a leaf here; skipping it skips binning the ~1.3M ranges
+            // of <= 4 primitives of the 5M sphere, which are most of its nodes.
+            d.leaf = true;
         } else {
             d.leaf = !sah_split(begin, end, ri, d.mid, axis, d.kids, d.kids_known);
         }
@@ -416,7 +425,8 @@ private:
         return mid;
     }
 
-    void bin_range(uint32_t begin, uint32_t end, const Binner4& binner, SparseBins& acc) const {
+    /// Small ranges: each bin written when first used (SparseBins).
+    void bin_sparse(uint32_t begin, uint32_t end, const Binner4& binner, SparseBins& acc) const {
         for (uint32_t i = begin; i < end; ++i) {
             const BuildPrim& q = p_[i];
             const __m128 lo = prim_lo(q), hi = prim_hi(q);
@@ -424,6 +434,50 @@ private:
             binner.bins(_mm_mul_ps(_mm_add_ps(xyz(lo), xyz(hi)), _mm_set1_ps(0.5f)), k);
             for (int a = 0; a < 3; ++a) acc.add(a, k[a], lo, hi);
         }
+    }
+
+    /// Larger ranges: all bins cleared first, then updated without a test, alternating
+    /// two sets of bins. Neighbouring primitives of a mesh mostly fall into the same
+    /// bins, and one set would make every update wait for the previous one's store
+    /// (the interleaving Embree's binner uses too). The sets are then merged into `acc`.
+    void bin_dense(uint32_t begin, uint32_t end, const Binner4& binner, SparseBins& acc) const {
+        struct alignas(16) Dense {
+            __m128 lo[3][kBins], hi[3][kBins];
+            uint32_t n[3][kBins];
+        };
+        Dense d[2];
+        const __m128 inf = _mm_set1_ps(kInfinity), ninf = _mm_set1_ps(-kInfinity);
+        for (Dense& x : d)
+            for (int a = 0; a < 3; ++a)
+                for (int k = 0; k < kBins; ++k) x.lo[a][k] = inf, x.hi[a][k] = ninf, x.n[a][k] = 0;
+        auto one = [&](Dense& x, const BuildPrim& q) {
+            const __m128 lo = prim_lo(q), hi = prim_hi(q);
+            int k[4];
+            binner.bins(_mm_mul_ps(_mm_add_ps(xyz(lo), xyz(hi)), _mm_set1_ps(0.5f)), k);
+            for (int a = 0; a < 3; ++a) {
+                x.lo[a][k[a]] = box_min(x.lo[a][k[a]], lo);
+                x.hi[a][k[a]] = box_max(x.hi[a][k[a]], hi);
+                ++x.n[a][k[a]];
+            }
+        };
+        uint32_t i = begin;
+        for (; i + 1 < end; i += 2) {
+            one(d[0], p_[i]);
+            one(d[1], p_[i + 1]);
+        }
+        if (i < end) one(d[0], p_[i]);
+        for (int a = 0; a < 3; ++a)
+            for (int k = 0; k < kBins; ++k) {
+                const uint32_t cnt = d[0].n[a][k] + d[1].n[a][k];
+                if (cnt) acc.add(a, k, box_min(d[0].lo[a][k], d[1].lo[a][k]), box_max(d[0].hi[a][k], d[1].hi[a][k]), cnt);
+            }
+    }
+
+    void bin_range(uint32_t begin, uint32_t end, const Binner4& binner, SparseBins& acc) const {
+        if (end - begin >= kDenseBins)
+            bin_dense(begin, end, binner, acc);
+        else
+            bin_sparse(begin, end, binner, acc);
     }
 
     /// Hoare partition, the very permutation std::partition (libstdc++'s bidirectional
@@ -435,9 +489,7 @@ private:
         __m128 lo[2] = {inf, inf}, hi[2] = {_mm_sub_ps(_mm_setzero_ps(), inf), _mm_sub_ps(_mm_setzero_ps(), inf)};
         auto side = [&](const BuildPrim& q) {
             const __m128 c = prim_centroid(q);
-            alignas(16) float f[4];
-            _mm_store_ps(f, c);
-            const int s = left(f) ? 0 : 1;
+            const int s = left(c) ? 0 : 1;
             lo[s] = box_min(lo[s], c), hi[s] = box_max(hi[s], c);
             return s;
         };
@@ -507,8 +559,16 @@ private:
         axis = sw.axis;
         const int best_axis = sw.axis, best_split = sw.split;
         Bounds3f cb[2];
-        mid = partition(begin, end, [&](const float* c) { return binner.bin(c[best_axis], best_axis) < best_split; },
-                        cb);
+        // Binner4 computes the three axes' bins as Binner::bin does: the side is the
+        // bin on best_axis against best_split, as counted.
+        const __m128i split4 = _mm_set1_epi32(best_split);
+        mid = partition(
+            begin, end,
+            [&](__m128 c) {
+                const int lt = _mm_movemask_ps(_mm_castsi128_ps(_mm_cmplt_epi32(binner4.bins(c), split4)));
+                return (lt >> best_axis) & 1;
+            },
+            cb);
         if (mid == begin || mid == end) {  // paranoia
             mid = median_split(begin, end, axis);
             return true;
