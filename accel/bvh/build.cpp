@@ -620,7 +620,7 @@ void flatten(const Part& root, std::vector<Node>& out) {
     };
     place(place, root, 0);
     out.reserve(next);
-    advise_huge(out.data(), size_t(next) * sizeof(Node));
+    prepare_fresh(out.data(), size_t(next) * sizeof(Node));
     out.resize(next);
     for (const auto& [node, slot] : tops) out[slot] = node;
     tbb::parallel_for(size_t(0), jobs.size(), [&](size_t i) {
@@ -637,28 +637,38 @@ void flatten(const Part& root, std::vector<Node>& out) {
 
 }  // namespace
 
+void prepare_fresh(void* p, size_t bytes) {
+    advise_huge(p, bytes);
+    constexpr size_t kPage = 4096;
+    volatile char* c = static_cast<char*>(p);
+    const size_t pages = (bytes + kPage - 1) / kPage;
+    tbb::parallel_for(tbb::blocked_range<size_t>(0, pages, 512), [&](const tbb::blocked_range<size_t>& r) {
+        for (size_t i = r.begin(); i < r.end(); ++i) c[i * kPage] = 0;
+    });
+}
+
 TreeFacts tree_facts(const std::vector<Node>& nodes) {
     TreeFacts f;
     if (nodes.empty()) return f;
     const double root_area = std::max(double(nodes[0].bounds().surface_area()), 1e-30);
-    struct Item {
-        uint32_t idx, depth;
-    };
-    std::vector<Item> stack{{0, 1}};
-    while (!stack.empty()) {
-        const Item it = stack.back();
-        stack.pop_back();
-        const Node& n = nodes[it.idx];
+    // Children always follow their parent (depth-first layout, offset > index), so one
+    // pass in index order meets every parent before its children: depths without a
+    // stack, the nodes read in memory order (a stack walk of the 5M sphere's 2.6M nodes
+    // was ~75 ms, serial). A malformed child index (inspect_bvh reports those) is skipped.
+    std::vector<uint16_t> depth(nodes.size(), 0);
+    depth[0] = 1;
+    for (size_t i = 0; i < nodes.size(); ++i) {
+        const Node& n = nodes[i];
         const double rel = double(n.bounds().surface_area()) / root_area;
-        f.depth = std::max(f.depth, it.depth);
+        f.depth = std::max<uint32_t>(f.depth, depth[i]);
         if (n.is_leaf()) {
             ++f.leaves;
             f.max_leaf = std::max(f.max_leaf, n.count());
             f.sah_cost += rel * blocks(n.count()) * kCostIntersect;
         } else {
             f.sah_cost += rel * kCostTraversal;
-            stack.push_back({n.offset, it.depth + 1});
-            stack.push_back({n.offset + 1, it.depth + 1});
+            if (n.offset > i && uint64_t(n.offset) + 1 < nodes.size())
+                depth[n.offset] = depth[n.offset + 1] = uint16_t(depth[i] + 1);
         }
     }
     return f;
@@ -685,7 +695,7 @@ BinaryTree build_binary(std::span<const GeometryView> geometry, const std::vecto
         Part root = builder.build(0, n, 1, nullptr);
         flatten(root, tree.nodes);
         tree.order.reserve(n);
-        advise_huge(tree.order.data(), size_t(n) * sizeof(PrimRef));
+        prepare_fresh(tree.order.data(), size_t(n) * sizeof(PrimRef));
         tree.order.resize(n);
         tbb::parallel_for(tbb::blocked_range<uint32_t>(0, n, 16384), [&](const tbb::blocked_range<uint32_t>& r) {
             for (uint32_t i = r.begin(); i < r.end(); ++i) tree.order[i] = refs[prims[i].id];

@@ -36,6 +36,10 @@ public:
         // subtree taking the room it counted.
         uint32_t next_node = 0, next_block = 0;
         place(0, next_node, next_block);
+        out_.nodes.reserve(next_node);
+        out_.blocks.reserve(next_block);
+        prepare_fresh(out_.nodes.data(), size_t(next_node) * sizeof(WideNode));
+        prepare_fresh(out_.blocks.data(), size_t(next_block) * sizeof(Block));
         out_.nodes.resize(next_node);
         out_.blocks.resize(next_block);
         for (const Top& t : tops_) write_top(t);
