@@ -87,7 +87,8 @@ LightSet::LightSet(const scenes::Scene& scene, LightModel model, std::vector<std
         notes.push_back("the course's light semantics apply to COLLADA scenes: this glTF scene uses --lights=mesh");
     }
     const bool course = model_ == LightModel::Course;
-    // Emissive meshes: one light each, sampled by area over its triangles.
+    // Emissive meshes: one light each; a triangle is picked by area, then sampled by
+    // solid angle where near (near_triangle), else by area.
     std::vector<bool> mesh_is_light(scene.meshes.size(), false);
     bool emissive_surfaces = false;
     for (size_t mi = 0; mi < scene.meshes.size(); ++mi) {
@@ -162,7 +163,7 @@ LightSet::LightSet(const scenes::Scene& scene, LightModel model, std::vector<std
                         duplicates_mesh(sl, scene.meshes[mi], scene.materials[scene.meshes[mi].material])) {
                         notes.push_back(fmt::format(
                             "area light '{}' describes the same emitter as emissive mesh '{}': "
-                            "counted once, as the mesh (hit by camera and bounce rays, sampled by area)",
+                            "counted once, as the mesh (hit by camera and bounce rays, sampled as a light)",
                             sl.name, scene.meshes[mi].name));
                         dup = true;
                     }

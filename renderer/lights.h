@@ -25,11 +25,11 @@ struct Interaction;
 ///    rays and by the direct rays of hemisphere sampling (-H), and by nothing else: a
 ///    bounce adds only the light sampled at its next vertex. -H and -l converge to
 ///    slightly different images, as in the course.
-///  - Mesh: every emissive surface is the light, sampled by area and seen by every ray;
-///    a mesh emits on both sides when its material is double-sided (CS184 files always;
-///    glTF's doubleSided), else on the side its shading normals face. An area light that
-///    describes an emissive panel is counted once, as the mesh. -H and -l converge to
-///    the same image.
+///  - Mesh: every emissive surface is the light, sampled (by solid angle where near,
+///    else by area) and seen by every ray; a mesh emits on both sides when its material
+///    is double-sided (CS184 files always; glTF's doubleSided), else on the side its
+///    shading normals face. An area light that describes an emissive panel is counted
+///    once, as the mesh. -H and -l converge to the same image.
 enum class LightModel : uint8_t { Course, Mesh };
 
 /// "course" | "mesh"; "" = the default for the scene's format (course for COLLADA,
