@@ -1,23 +1,26 @@
 // The binary builders. Binned SAH: Wald 2007, "On fast Construction of SAH-based
 // Bounding Volume Hierarchies" (32 bins per axis, the SAH evaluated at the bin borders,
 // leaves priced in SIMD blocks as Embree's builders do); midpoint: the course's split.
+// Built in parallel (subtrees of >= 4096 primitives split across tasks, binning of
+// >= 32K primitives reduced across tasks) into the same depth-first array at any thread
+// count; the 5M-triangle build's profile and the reasons for each step are in
+// benchmarks/RESULTS.md (issue 13, session 4).
 #include "accel/bvh/build.h"
 
 #include "accel/bvh/build_bins.h"
 
 #include <tbb/blocked_range.h>
+#include <tbb/enumerable_thread_specific.h>
 #include <tbb/parallel_for.h>
 #include <tbb/parallel_invoke.h>
 #include <tbb/parallel_reduce.h>
-#include <tbb/enumerable_thread_specific.h>
 #include <tbb/task_arena.h>
 
 #include <algorithm>
-#include <atomic>
-#include <cmath>
-#include <limits>
 #include <bit>
+#include <cmath>
 #include <cstdlib>
+#include <limits>
 #include <memory>
 #include <new>
 #include <type_traits>
