@@ -534,7 +534,7 @@ private:
             bins.clear();
             bin_range(begin, end, binner4, bins);
         } else {
-            SparseBins none;
+            SparseBins none{};  // the reduction's identity is copied: no indeterminate bytes
             none.clear();
             bins = tbb::parallel_reduce(
                 tbb::blocked_range<uint32_t>(begin, end, 8192), none,
