@@ -54,6 +54,9 @@ int main(int argc, char** argv) {
     std::string isa = "auto";
     app.add_option("--isa", isa, "Kernel of the custom backends: auto | sse2 | avx2 | avx512")
         ->check(CLI::IsMember({"auto", "sse2", "avx2", "avx512"}));
+    std::string nodes = "auto";
+    app.add_option("--nodes", nodes, "Node layout of the custom backends: auto (by tree size) | float | quantized")
+        ->check(CLI::IsMember({"auto", "float", "quantized"}));
     std::vector<double> only;
     app.add_option("--placement", only, "Only this placement: SCALE OFFSET (e.g. --placement 1e3 1e6)")
         ->expected(2);
@@ -96,7 +99,7 @@ int main(int argc, char** argv) {
     if (!no_embree && !have_embree) std::printf("embree: not in this build, skipped\n");
     std::vector<BackendCase> backends = backend_cases(have_embree);
     for (BackendCase& b : backends)
-        if (b.backend == "custom") accel::parse_isa(isa, b.options.isa);
+        if (b.backend == "custom") accel::parse_isa(isa, b.options.isa), accel::parse_layout(nodes, b.options.nodes);
 
     std::ofstream out(csv);
     out << "scale,offset,mesh,backend,dropped,leak_rays,leaks,axis_rays,axis_leaks,vertex_rays,vertex_leaks,"

@@ -28,6 +28,16 @@ bool parse_isa(const std::string& s, Isa& out);
 bool cpu_has(Isa isa);
 /// The kernel Auto picks on this CPU; any other value is returned unchanged.
 Isa resolve_isa(Isa isa);
+/// Auto's threshold for quantized nodes, in primitives (RESULTS.md, "compressed nodes").
+constexpr uint64_t kQuantizeFrom = 1000000;
+/// "float", "quantized" ("auto" for Auto).
+const char* layout_name(NodeLayout layout);
+/// Parses auto|float|quantized; false for anything else.
+bool parse_layout(const std::string& s, NodeLayout& out);
+/// The layout Auto picks for a scene of `primitives` (any other value is returned
+/// unchanged): quantized nodes from kQuantizeFrom primitives on, where the float nodes
+/// no longer fit the caches and halving their bytes pays (measured, RESULTS.md).
+NodeLayout resolve_layout(NodeLayout layout, uint64_t primitives);
 /// Kernels compiled in that this CPU can run, narrowest first.
 std::vector<Isa> supported_isas();
 
@@ -56,6 +66,7 @@ struct BvhReport {
     /// The 8-wide tree traversal actually uses (collapsed from the binary one) covers
     /// every primitive once, with nested, containing boxes.
     uint64_t wide_nodes = 0, blocks = 0;
+    bool quantized = false;          ///< traversal reads compressed nodes (QuantNode)
     double filled_lanes = 0;         ///< primitives / (4 * blocks)
     bool wide_ok = true;
     std::vector<std::string> errors; ///< first few violations, human readable

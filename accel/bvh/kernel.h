@@ -23,6 +23,8 @@
 #endif
 
 #include <cmath>
+#include <cstring>
+#include <type_traits>
 #include <utility>
 #include <limits>
 
@@ -234,13 +236,24 @@ inline int nearest_scalar(const float* dist, unsigned mask) {
     }
     return best;
 }
-inline unsigned push_scalar(const WideNode& n, unsigned mask, uint32_t* ref, uint32_t* count) {
+template <class N>
+inline unsigned push_scalar(const N& n, unsigned mask, uint32_t* ref, uint32_t* count) {
     unsigned k = 0;
     for (; mask; mask &= mask - 1, ++k) {
         const int i = __builtin_ctz(mask);
         ref[k] = n.child[i], count[k] = n.count[i];
     }
     return k;
+}
+
+/// The node array a policy's test reads: P::Node is WideNode (float child boxes) or
+/// QuantNode (compressed, Ylitie et al. 2017); both share the child/count encoding.
+template <class Node>
+inline const Node* node_array(const WideBvh& w) {
+    if constexpr (std::is_same_v<Node, QuantNode>)
+        return w.qnodes.empty() ? nullptr : w.qnodes.data();
+    else
+        return w.nodes.empty() ? nullptr : w.nodes.data();
 }
 
 /// Returns the leaf-order slot of the closest primitive hit in [ray.t_min, t], or
@@ -252,7 +265,8 @@ inline unsigned push_scalar(const WideNode& n, unsigned mask, uint32_t* ref, uin
 template <class P, TriangleTest Test, bool Count, bool HasSpheres>
 uint32_t traverse(const WideBvh& w, const Ray& ray_in, float& t_io, float& u_out, float& v_out,
                   TraceStats& stats) {
-    if (w.nodes.empty()) return Block::kNone;
+    const typename P::Node* nodes = node_array<typename P::Node>(w);
+    if (!nodes) return Block::kNone;
     // Local copies: through references every store to t could alias the ray and the
     // node data (all floats), forcing reloads in the innermost loop.
     const Ray ray = ray_in;
@@ -271,7 +285,6 @@ uint32_t traverse(const WideBvh& w, const Ray& ray_in, float& t_io, float& u_out
     const WatertightRay wr = Test == TriangleTest::Watertight ? WatertightRay(ray.dir) : WatertightRay();
     const typename P::Box box(pl, ray.t_min);
     const LeafRay lr(ray, wr, box);
-    const WideNode* nodes = w.nodes.data();
     const Block* blocks = w.blocks.data();
 
     struct Entry {
@@ -308,7 +321,7 @@ uint32_t traverse(const WideBvh& w, const Ray& ray_in, float& t_io, float& u_out
                 } while (hit);
             }
         } else {
-            const WideNode& n = nodes[ref];
+            const auto& n = nodes[ref];
             if constexpr (Count) ++boxes;
             alignas(32) float dist[kWidth];
             unsigned mask = P::test(n, box, t, dist);
@@ -374,7 +387,8 @@ uint32_t traverse(const WideBvh& w, const Ray& ray_in, float& t_io, float& u_out
 /// Counting as in traverse.
 template <class P, TriangleTest Test, bool Count, bool HasSpheres>
 bool occlude(const WideBvh& w, const Ray& ray_in, TraceStats& stats) {
-    if (w.nodes.empty()) return false;
+    const typename P::Node* nodes = node_array<typename P::Node>(w);
+    if (!nodes) return false;
     const Ray ray = ray_in;
     const float t = ray.t_max;
     uint64_t boxes = 1, tests = 0;
@@ -387,7 +401,6 @@ bool occlude(const WideBvh& w, const Ray& ray_in, TraceStats& stats) {
     const WatertightRay wr = Test == TriangleTest::Watertight ? WatertightRay(ray.dir) : WatertightRay();
     const typename P::Box box(pl, ray.t_min);
     const LeafRay lr(ray, wr, box);
-    const WideNode* nodes = w.nodes.data();
     const Block* blocks = w.blocks.data();
     // P::push stores a whole vector of kWidth references; the slack keeps the last one
     // inside the arrays.
@@ -410,7 +423,7 @@ bool occlude(const WideBvh& w, const Ray& ray_in, TraceStats& stats) {
                 if (tri4<Test>(*b, lr, t).mask) return finish(true);
             }
         } else {
-            const WideNode& n = nodes[ref];
+            const auto& n = nodes[ref];
             if constexpr (Count) ++boxes;
             alignas(32) float dist[kWidth];
             unsigned mask = P::test(n, box, t, dist);
