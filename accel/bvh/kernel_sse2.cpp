@@ -13,7 +13,7 @@ namespace {
 /// returns the hit mask, entry distances in dist. _mm_max_ps/_mm_min_ps return their
 /// SECOND operand when either is NaN, so the possibly-NaN slab distance goes first and
 /// the never-NaN accumulator second.
-inline unsigned test4(const __m128 n[3], const __m128 f[3], const BoxConstants<__m128>& r, __m128 vt, float* dist) {
+PT_INLINE inline unsigned test4(const __m128 n[3], const __m128 f[3], const BoxConstants<__m128>& r, __m128 vt, float* dist) {
     const __m128 tnx = _mm_mul_ps(_mm_sub_ps(n[0], r.o[0]), r.inv[0]);
     const __m128 tny = _mm_mul_ps(_mm_sub_ps(n[1], r.o[1]), r.inv[1]);
     const __m128 tnz = _mm_mul_ps(_mm_sub_ps(n[2], r.o[2]), r.inv[2]);
@@ -30,7 +30,7 @@ struct Sse2 {
     using Node = WideNode;
     using Box = BoxConstants<__m128>;
     /// The eight child boxes as two 4-lane halves.
-    static unsigned test(const WideNode& n, const Box& r, float t, float* dist) {
+    PT_INLINE static unsigned test(const WideNode& n, const Box& r, float t, float* dist) {
         const __m128 vt = _mm_set1_ps(t);
         unsigned mask = 0;
         for (int q = 0; q < kWidth; q += 4) {
@@ -40,9 +40,9 @@ struct Sse2 {
         }
         return mask;
     }
-    static int nearest(const float* dist, unsigned mask) { return nearest_scalar(dist, mask); }
+    PT_INLINE static int nearest(const float* dist, unsigned mask) { return nearest_scalar(dist, mask); }
     template <class N>
-    static unsigned push(const N& n, unsigned mask, uint32_t* ref, uint32_t* count) {
+    PT_INLINE static unsigned push(const N& n, unsigned mask, uint32_t* ref, uint32_t* count) {
         return push_scalar(n, mask, ref, count);
     }
 };
@@ -52,7 +52,7 @@ struct Sse2 {
 /// origin + q * 2^e in the float operations quantize.cpp checked, then Sse2's test.
 struct Sse2Q : Sse2 {
     using Node = QuantNode;
-    static unsigned test(const QuantNode& n, const Box& r, float t, float* dist) {
+    PT_INLINE static unsigned test(const QuantNode& n, const Box& r, float t, float* dist) {
         __m128 s[3], org[3];
         for (int a = 0; a < 3; ++a) {
             float step;

@@ -26,7 +26,7 @@ struct Node8 {
     /// The subtract-then-multiply form (not an FMA of precomputed org*inv): its two
     /// roundings are what Ize's far-distance scale is proven for. NaN operands go first
     /// in max/min so the accumulator wins (vmaxps returns the second operand on NaN).
-    static unsigned test(const WideNode& n, const Box& r, float t, float* dist) {
+    PT_INLINE static unsigned test(const WideNode& n, const Box& r, float t, float* dist) {
         const __m256 tnx = _mm256_mul_ps(_mm256_sub_ps(_mm256_load_ps(n.b[r.nx]), r.o[0]), r.inv[0]);
         const __m256 tny = _mm256_mul_ps(_mm256_sub_ps(_mm256_load_ps(n.b[r.ny]), r.o[1]), r.inv[1]);
         const __m256 tnz = _mm256_mul_ps(_mm256_sub_ps(_mm256_load_ps(n.b[r.nz]), r.o[2]), r.inv[2]);
@@ -42,7 +42,7 @@ struct Node8 {
 
     /// The hit lane with the smallest entry distance, without a branch per lane: a
     /// horizontal minimum over the hit lanes (others +inf), then the first lane equal to it.
-    static int nearest(const float* dist, unsigned mask) {
+    PT_INLINE static int nearest(const float* dist, unsigned mask) {
         const __m256 d = _mm256_load_ps(dist);
 #ifdef __AVX512VL__
         const __m256 h = _mm256_mask_mov_ps(_mm256_set1_ps(kInfinity), __mmask8(mask), d);
@@ -60,7 +60,7 @@ struct Node8 {
     /// Stores the references of the hit lanes in `mask`, in lane order, as one vector
     /// each for child and count (the stack has kWidth entries of slack); returns how many.
     template <class N>
-    static unsigned push(const N& n, unsigned mask, uint32_t* ref, uint32_t* count) {
+    PT_INLINE static unsigned push(const N& n, unsigned mask, uint32_t* ref, uint32_t* count) {
         const __m256i c = _mm256_load_si256(reinterpret_cast<const __m256i*>(n.child));
         const __m256i k = _mm256_load_si256(reinterpret_cast<const __m256i*>(n.count));
 #ifdef __AVX512VL__
@@ -85,7 +85,7 @@ struct Node8 {
 /// instructions per node: it pays only where node fetches miss the caches (RESULTS.md).
 struct QNode8 : Node8 {
     using Node = QuantNode;
-    static unsigned test(const QuantNode& n, const Box& r, float t, float* dist) {
+    PT_INLINE static unsigned test(const QuantNode& n, const Box& r, float t, float* dist) {
         // The grid steps: each biased exponent byte shifted into a float's exponent
         // field (lane 3 holds `valid` and is not used).
         int32_t e;
