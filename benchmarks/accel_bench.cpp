@@ -124,7 +124,7 @@ int main(int argc, char** argv) {
                                      "(or name it per backend: custom:sah:sse2)")
         ->check(CLI::IsMember({"auto", "sse2", "avx2", "avx512"}));
     std::string nodes_arg = "auto";
-    app.add_option("--nodes", nodes_arg, "Node layout of custom backends that name none: auto (= float, measured) | float | quantized "
+    app.add_option("--nodes", nodes_arg, "Node layout of custom backends that name none: auto (quantized from 4M primitives) | float | quantized "
                                          "(or per backend: custom:sah:quantized)")
         ->check(CLI::IsMember({"auto", "float", "quantized"}));
     app.add_flag("--quick", quick, "Smoke run: 5000 rays, 1 repeat, default scene only unless --scene");

@@ -55,7 +55,7 @@ int main(int argc, char** argv) {
     app.add_option("--isa", isa, "Kernel of the custom backends: auto | sse2 | avx2 | avx512")
         ->check(CLI::IsMember({"auto", "sse2", "avx2", "avx512"}));
     std::string nodes = "auto";
-    app.add_option("--nodes", nodes, "Node layout of the custom backends: auto (= float, measured) | float | quantized")
+    app.add_option("--nodes", nodes, "Node layout of the custom backends: auto (quantized from 4M primitives) | float | quantized")
         ->check(CLI::IsMember({"auto", "float", "quantized"}));
     std::vector<double> only;
     app.add_option("--placement", only, "Only this placement: SCALE OFFSET (e.g. --placement 1e3 1e6)")

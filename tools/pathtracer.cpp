@@ -159,7 +159,7 @@ int main(int argc, char** argv) {
     app.add_option("--isa", isa, "Custom BVH kernel: auto (by CPUID) | sse2 | avx2 | avx512")
         ->check(CLI::IsMember({"auto", "sse2", "avx2", "avx512"}));
     std::string nodes = "auto";
-    app.add_option("--nodes", nodes, "Custom BVH node layout: auto (= float, measured) | float | quantized (Ylitie 2017)")
+    app.add_option("--nodes", nodes, "Custom BVH node layout: auto (quantized from 4M primitives) | float | quantized (Ylitie 2017)")
         ->check(CLI::IsMember({"auto", "float", "quantized"}));
     app.add_flag("--embree-robust", ao.embree_robust, "Embree robust traversal mode");
     app.add_flag("--embree-count", ao.embree_count,

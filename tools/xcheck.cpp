@@ -88,7 +88,7 @@ int main(int argc, char** argv) {
     app.add_option("--isa", isa_arg, "Kernel of custom backends that name none: auto | sse2 | avx2 | avx512")
         ->check(CLI::IsMember({"auto", "sse2", "avx2", "avx512"}));
     std::string nodes_arg = "auto";
-    app.add_option("--nodes", nodes_arg, "Node layout of custom backends that name none: auto (= float, measured) | float | quantized")
+    app.add_option("--nodes", nodes_arg, "Node layout of custom backends that name none: auto (quantized from 4M primitives) | float | quantized")
         ->check(CLI::IsMember({"auto", "float", "quantized"}));
     app.add_option("--dump", dump_path, "Write the disagreeing rays to FILE (replayable)");
     app.add_option("--replay", replay_path, "Trace the rays of FILE (from --dump) instead of generating rays")

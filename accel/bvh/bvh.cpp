@@ -89,9 +89,9 @@ bool parse_layout(const std::string& s, NodeLayout& out) {
     return false;
 }
 
-NodeLayout resolve_layout(NodeLayout layout, uint64_t /*primitives*/) {
-    // The size is the parameter a measured crossover would use; none was found (bvh.h).
-    return layout == NodeLayout::Auto ? NodeLayout::Float : layout;
+NodeLayout resolve_layout(NodeLayout layout, uint64_t primitives) {
+    if (layout != NodeLayout::Auto) return layout;
+    return primitives >= kQuantizeFrom ? NodeLayout::Quantized : NodeLayout::Float;
 }
 
 std::unique_ptr<Accelerator> make_bvh(std::span<const GeometryView> geometry, const AccelOptions& options) {

@@ -32,12 +32,14 @@ Isa resolve_isa(Isa isa);
 const char* layout_name(NodeLayout layout);
 /// Parses auto|float|quantized; false for anything else.
 bool parse_layout(const std::string& s, NodeLayout& out);
+/// Auto's threshold for quantized nodes, in primitives. Measured (RESULTS.md, "compressed
+/// nodes"): on the course meshes (<= 51k triangles, trees of a few MiB that stay in L2/L3)
+/// quantized nodes are 5-20 % slower, dequantizing costing ~25 instructions per node; on
+/// the 5M sphere (~290 MB of nodes and blocks) they are about even (diffuse +7 %, shadow
+/// -4..0 %), on a 15M sphere 10-14 % faster on shadow and diffuse rays.
+constexpr uint64_t kQuantizeFrom = 4000000;
 /// The layout Auto picks for a scene of `primitives` (any other value is returned
-/// unchanged): float nodes at every size. Quantized nodes measured 10-25 % slower on
-/// every scene up to the 5M-triangle sphere (RESULTS.md, "compressed nodes"): one
-/// traversal step waits for one node fetch whether it is two lines or four (the
-/// adjacent lines come in parallel), and dequantizing costs ~25 instructions per node.
-/// They stay an option for memory (half the node bytes).
+/// unchanged): quantized from kQuantizeFrom primitives on, float below.
 NodeLayout resolve_layout(NodeLayout layout, uint64_t primitives);
 /// Kernels compiled in that this CPU can run, narrowest first.
 std::vector<Isa> supported_isas();

@@ -868,16 +868,15 @@ TEST(BvhQuantized, BoxesBeyondTheGridFallBackToFloatNodes) {
     EXPECT_TRUE(bvh->occluded(Ray{{-2e38f, 0.25f, 0.25f}, {-1, 0, 0}, 0.0f, kInf}, s));
 }
 
-TEST(BvhQuantized, AutoLayoutIsFloatAndTheOthersAreKept) {
+TEST(BvhQuantized, AutoLayoutByTreeSize) {
     NodeLayout l;
     EXPECT_TRUE(parse_layout("quantized", l));
     EXPECT_EQ(l, NodeLayout::Quantized);
     EXPECT_FALSE(parse_layout("q8", l));
-    // Auto is float at every size (quantized never measured faster, RESULTS.md).
-    EXPECT_EQ(resolve_layout(NodeLayout::Auto, 100), NodeLayout::Float);
-    EXPECT_EQ(resolve_layout(NodeLayout::Auto, 50000000), NodeLayout::Float);
+    EXPECT_EQ(resolve_layout(NodeLayout::Auto, kQuantizeFrom - 1), NodeLayout::Float);
+    EXPECT_EQ(resolve_layout(NodeLayout::Auto, kQuantizeFrom), NodeLayout::Quantized);
     EXPECT_EQ(resolve_layout(NodeLayout::Quantized, 100), NodeLayout::Quantized);
-    EXPECT_EQ(resolve_layout(NodeLayout::Float, 50000000), NodeLayout::Float);
+    EXPECT_EQ(resolve_layout(NodeLayout::Float, kQuantizeFrom), NodeLayout::Float);
     Mesh m = grid(4);
     GeometryView v = m.view();
     EXPECT_NE(make_bvh({&v, 1}, options(BvhSplit::Sah, TriangleTest::Fast))->info().backend.find(", float)"),
