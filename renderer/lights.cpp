@@ -41,6 +41,22 @@ bool duplicates_mesh(const scenes::Light& l, const scenes::Mesh& m, const scenes
 
 Vec3f radiance_of(const scenes::Material& m) { return m.emission; }
 
+/// Beyond kNearReach times its largest centroid-to-vertex distance a triangle's points
+/// are all within a factor 5/3 of one distance, so area sampling's density varies by at
+/// most (5/3)^2 in solid angle there: the solid-angle sampler's trigonometry (about the
+/// cost of tracing a ray in the course's boxes) is spent only on near triangles.
+constexpr float kNearReach = 2.0f;
+
+/// Is an emissive triangle sampled by solid angle from this point? Only where Arvo's
+/// construction is well conditioned: below 3e-4 sr (a far or tiny triangle, where area
+/// sampling's density is nearly uniform in solid angle anyway) its angle differences
+/// lose their digits, and near a full hemisphere (6.22 sr) its arcs degenerate. The
+/// same thresholds as pbrt-v4's Triangle::Sample. sample() and pdf() both ask this
+/// with the same point, so the two always agree on the density.
+bool solid_angle_sampled(const SphericalTriangle& st) {
+    return st.valid() && st.solid_angle() >= 3e-4f && st.solid_angle() <= 6.22f;
+}
+
 }  // namespace
 
 LightModel parse_light_model(const std::string& name, scenes::SceneFormat format) {
@@ -65,13 +81,14 @@ Vec3f LightSet::emitted(const Interaction& it, const Vec3f& wo) const {
 }
 
 LightSet::LightSet(const scenes::Scene& scene, LightModel model, std::vector<std::string>& notes)
-    : scene_(&scene), model_(model) {
+    : model_(model), scene_(&scene) {
     if (model == LightModel::Course && scene.format == scenes::SceneFormat::Gltf) {
         model_ = LightModel::Mesh;
         notes.push_back("the course's light semantics apply to COLLADA scenes: this glTF scene uses --lights=mesh");
     }
     const bool course = model_ == LightModel::Course;
-    // Emissive meshes: one light each, sampled by area over its triangles.
+    // Emissive meshes: one light each; a triangle is picked by area, then sampled by
+    // solid angle where near (near_triangle), else by area.
     std::vector<bool> mesh_is_light(scene.meshes.size(), false);
     bool emissive_surfaces = false;
     for (size_t mi = 0; mi < scene.meshes.size(); ++mi) {
@@ -102,7 +119,11 @@ LightSet::LightSet(const scenes::Scene& scene, LightModel model, std::vector<std
                                   m.normals[m.indices[3 * t + 2]];
                 if (accel::dot(avg, ng) < 0) ng = -ng;
             }
-            tris_.push_back({a, b - a, c - a, ng, two_sided, uint32_t(mi), t});
+            const Vec3f centroid = (a + b + c) * (1.0f / 3.0f);
+            float reach2 = 0;
+            for (const Vec3f& v : {a, b, c}) reach2 = std::max(reach2, accel::dot(v - centroid, v - centroid));
+            tris_.push_back({a, b - a, c - a, ng, area, centroid, kNearReach * kNearReach * reach2, two_sided,
+                             uint32_t(mi), t});
             total += area;
             cdf_.push_back(total);
         }
@@ -142,7 +163,7 @@ LightSet::LightSet(const scenes::Scene& scene, LightModel model, std::vector<std
                         duplicates_mesh(sl, scene.meshes[mi], scene.materials[scene.meshes[mi].material])) {
                         notes.push_back(fmt::format(
                             "area light '{}' describes the same emitter as emissive mesh '{}': "
-                            "counted once, as the mesh (hit by camera and bounce rays, sampled by area)",
+                            "counted once, as the mesh (hit by camera and bounce rays, sampled as a light)",
                             sl.name, scene.meshes[mi].name));
                         dup = true;
                     }
@@ -220,6 +241,12 @@ LightSet::LightSet(const scenes::Scene& scene, LightModel model, std::vector<std
     }
 }
 
+SphericalTriangle LightSet::near_triangle(const Tri& t, const Vec3f& p) {
+    const Vec3f d = p - t.centroid;
+    if (!(accel::dot(d, d) < t.near2)) return {};
+    return SphericalTriangle(p, t.v0, t.v0 + t.e1, t.v0 + t.e2);
+}
+
 bool LightSet::sample(size_t i, const Vec3f& p, const Vec3f& n, Rng& rng, LightSample& out) const {
     const Light& l = lights_[i];
     out.delta = false;
@@ -227,7 +254,9 @@ bool LightSet::sample(size_t i, const Vec3f& p, const Vec3f& n, Rng& rng, LightS
     out.normal = Vec3f(0.0f);
     // q is a point of the light computed in float with error bound q_err (pbrt-v4 6.8
     // style: gamma(n) times the sum of the magnitudes added).
-    auto finite_area = [&](const Vec3f& q, const Vec3f& q_err, const Vec3f& nl, float area_pdf, bool two_sided) {
+    // solid_pdf > 0: the point was drawn by direction with that solid-angle density.
+    auto finite_area = [&](const Vec3f& q, const Vec3f& q_err, const Vec3f& nl, float area_pdf, bool two_sided,
+                           float solid_pdf = 0.0f) {
         const Vec3f d = q - p;
         const float dist2 = accel::dot(d, d);
         if (!(dist2 > 0)) return false;
@@ -243,7 +272,7 @@ bool LightSet::sample(size_t i, const Vec3f& p, const Vec3f& n, Rng& rng, LightS
         out.normal = nl;
         out.wi = wi;
         out.distance = dist;
-        out.pdf = area_pdf * dist2 / cos_l;
+        out.pdf = solid_pdf > 0 ? solid_pdf : area_pdf * dist2 / cos_l;
         return std::isfinite(out.pdf) && out.pdf > 0;
     };
     switch (l.kind) {
@@ -260,13 +289,40 @@ bool LightSet::sample(size_t i, const Vec3f& p, const Vec3f& n, Rng& rng, LightS
                                               l.num_tris - 1);
             const Tri& t = tris_[l.first_tri + k];
             float a = rng.next_float(), b = rng.next_float();
-            if (a + b > 1.0f) { a = 1.0f - a; b = 1.0f - b; }
+            // Near triangles by solid angle (see solid_angle_sampled), the rest by area.
+            float solid_pdf = 0;
+            const SphericalTriangle st = near_triangle(t, p);
+            if (solid_angle_sampled(st)) {
+                const Vec3f w = st.sample(a, b);
+                // The point of the triangle in that direction (Moller-Trumbore, in double):
+                // its barycentrics replace (a, b), clamped into the triangle against rounding.
+                const double e1[3] = {t.e1.x, t.e1.y, t.e1.z}, e2[3] = {t.e2.x, t.e2.y, t.e2.z};
+                const double d[3] = {w.x, w.y, w.z};
+                const double o[3] = {double(p.x) - t.v0.x, double(p.y) - t.v0.y, double(p.z) - t.v0.z};
+                const auto crs = [](const double* x, const double* y, double* r) {
+                    r[0] = x[1] * y[2] - x[2] * y[1], r[1] = x[2] * y[0] - x[0] * y[2], r[2] = x[0] * y[1] - x[1] * y[0];
+                };
+                const auto dt = [](const double* x, const double* y) { return x[0] * y[0] + x[1] * y[1] + x[2] * y[2]; };
+                double pv[3], qv[3];
+                crs(d, e2, pv);
+                const double det = dt(e1, pv);
+                if (!(std::abs(det) > 0)) return false;
+                crs(o, e1, qv);
+                double ba = std::max(0.0, dt(o, pv) / det), bb = std::max(0.0, dt(d, qv) / det);
+                if (!(dt(e2, qv) / det > 0)) return false;
+                if (ba + bb > 1) ba /= ba + bb, bb = 1 - ba;
+                a = float(ba), b = float(bb);
+                solid_pdf = t.area / (l.area * st.solid_angle());
+            } else if (a + b > 1.0f) {
+                a = 1.0f - a;
+                b = 1.0f - b;
+            }
             const Vec3f ea = t.e1 * a, eb = t.e2 * b;
             const Vec3f q = t.v0 + ea + eb;
             // gamma(7) as for a hit point (renderer/interaction.cpp), which also covers the
             // rounding of the stored edges e1 = v1 - v0, e2 = v2 - v0.
             const Vec3f err = (accel::vabs(t.v0) + accel::vabs(ea) + accel::vabs(eb)) * gamma_bound(7);
-            if (!finite_area(q, err, t.n, 1.0f / l.area, t.two_sided)) return false;
+            if (!finite_area(q, err, t.n, 1.0f / l.area, t.two_sided, solid_pdf)) return false;
             if (l.texture != scenes::kNoTexture) {
                 const scenes::Mesh& m = scene_->meshes[t.mesh];
                 const uint32_t* idx = &m.indices[3 * size_t(t.index)];
@@ -331,10 +387,21 @@ bool LightSet::sample(size_t i, const Vec3f& p, const Vec3f& n, Rng& rng, LightS
     return false;
 }
 
-float LightSet::pdf(size_t i, const Vec3f& n, const Vec3f& wi, float dist, const Vec3f& nq) const {
+float LightSet::pdf(size_t i, const Vec3f& p, const Vec3f& n, const Vec3f& wi, float dist, const Vec3f& nq,
+                   uint32_t prim) const {
     const Light& l = lights_[i];
     switch (l.kind) {
-        case Kind::Mesh:
+        case Kind::Mesh: {
+            // The triangle hit, found by its index in the mesh (tris_ keeps mesh order and
+            // skips only degenerate triangles, which no ray hits).
+            const auto begin = tris_.begin() + l.first_tri, end = begin + l.num_tris;
+            const auto it = std::lower_bound(begin, end, prim, [](const Tri& t, uint32_t v) { return t.index < v; });
+            if (it == end || it->index != prim) return 0.0f;
+            const SphericalTriangle st = near_triangle(*it, p);
+            if (solid_angle_sampled(st)) return it->area / (l.area * st.solid_angle());
+            const float cos_l = std::abs(accel::dot(nq, wi));
+            return cos_l > 0 ? dist * dist / (cos_l * l.area) : 0.0f;
+        }
         case Kind::Sphere: {
             // Area sampling: 1/area over the light, converted to solid angle.
             const float cos_l = std::abs(accel::dot(nq, wi));

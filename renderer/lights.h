@@ -1,5 +1,5 @@
 // Everything that emits, in one list the integrators sample: rectangular area lights,
-// emissive meshes (sampled by area), emissive spheres, point, spot and directional
+// emissive meshes (sampled by solid angle where near, by area elsewhere), emissive spheres, point, spot and directional
 // lights, and a constant environment. Built once per scene; only the kinds present cost
 // anything.
 #pragma once
@@ -10,6 +10,7 @@
 #include "accel/math.h"
 #include "renderer/envmap.h"
 #include "renderer/rng.h"
+#include "renderer/spherical_triangle.h"
 #include "scenes/scene.h"
 
 namespace renderer {
@@ -24,11 +25,11 @@ struct Interaction;
 ///    rays and by the direct rays of hemisphere sampling (-H), and by nothing else: a
 ///    bounce adds only the light sampled at its next vertex. -H and -l converge to
 ///    slightly different images, as in the course.
-///  - Mesh: every emissive surface is the light, sampled by area and seen by every ray;
-///    a mesh emits on both sides when its material is double-sided (CS184 files always;
-///    glTF's doubleSided), else on the side its shading normals face. An area light that
-///    describes an emissive panel is counted once, as the mesh. -H and -l converge to
-///    the same image.
+///  - Mesh: every emissive surface is the light, sampled (by solid angle where near,
+///    else by area) and seen by every ray; a mesh emits on both sides when its material
+///    is double-sided (CS184 files always; glTF's doubleSided), else on the side its
+///    shading normals face. An area light that describes an emissive panel is counted
+///    once, as the mesh. -H and -l converge to the same image.
 enum class LightModel : uint8_t { Course, Mesh };
 
 /// "course" | "mesh"; "" = the default for the scene's format (course for COLLADA,
@@ -107,9 +108,10 @@ public:
         return k == Kind::Mesh || k == Kind::Sphere || k == Kind::Environment;
     }
     /// Solid-angle density with which sample(i, p, n) returns direction wi toward the
-    /// point of light i at distance `dist` whose geometric normal is `nq` (unused for the
-    /// environment).
-    float pdf(size_t i, const Vec3f& n, const Vec3f& wi, float dist, const Vec3f& nq) const;
+    /// point of light i at distance `dist` whose geometric normal is `nq` and, for an
+    /// emissive mesh, which is on its triangle `prim` (unused for the environment).
+    float pdf(size_t i, const Vec3f& p, const Vec3f& n, const Vec3f& wi, float dist, const Vec3f& nq,
+              uint32_t prim = 0) const;
 
     /// Summary line per kind, for stderr.
     std::string summary() const;
@@ -128,9 +130,15 @@ private:
     struct Tri {
         Vec3f v0, e1, e2;
         Vec3f n;  ///< unit normal of the emitting side
+        float area;
+        Vec3f centroid;
+        float near2;  ///< squared distance from the centroid within which it is "near"
         bool two_sided;
         uint32_t mesh, index;  ///< for textured emission: where to find the uvs
     };
+    /// The spherical triangle of `t` seen from p when p is near it, else an invalid one.
+    static SphericalTriangle near_triangle(const Tri& t, const Vec3f& p);
+
     std::vector<Light> lights_;
     std::vector<Tri> tris_;    // emissive triangles, grouped by mesh light
     std::vector<float> cdf_;   // per mesh light: running area, normalised to 1 at its end

@@ -172,7 +172,8 @@ int main(int argc, char** argv) {
                    "only the file's library_lights (CGL area lights: front side only); emissive meshes "
                    "are seen, from both sides, by camera rays and -H rays only (black to bounce rays), "
                    "so -H and -l converge to slightly different images, as in the course. mesh (always "
-                   "for glTF): every emissive surface is the light, sampled by area and seen by every "
+                   "for glTF): every emissive surface is the light, sampled (by solid angle where near, "
+                   "else by area) and seen by every "
                    "ray, two-sided for .dae (glTF: the material's doubleSided); an area light describing "
                    "the same panel is counted once; -H and -l converge to the same image")
         ->check(CLI::IsMember({"course", "mesh"}));

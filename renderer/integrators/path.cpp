@@ -187,7 +187,7 @@ bool PathIntegrator::scatter(const scenes::Material& m, int bounce, Interaction&
     if (is_black(beta)) return false;
     const accel::Ray ray = spawn_ray(it.p, it.p_error, it.ng, wi, scale_, s_.offset);
     accel::Hit hit;
-    const Vec3f n_here = it.ns;
+    const Vec3f n_here = it.ns, p_here = it.p;
     if (!ctx.accel.intersect(ray, hit, ctx.stats)) {
         // Through a delta lobe light sampling cannot find the environment: all of it is
         // counted here. Otherwise both strategies found it: MIS weight.
@@ -195,7 +195,7 @@ bool PathIntegrator::scatter(const scenes::Material& m, int bounce, Interaction&
             const int e = lights_.environment_index();
             const float w = e < 0 ? 1.0f
                                   : bsdf_weight(float(s_.light_samples) *
-                                                lights_.pdf(size_t(e), n_here, wi, 0.0f, Vec3f(0.0f)));
+                                                lights_.pdf(size_t(e), p_here, n_here, wi, 0.0f, Vec3f(0.0f)));
             L += beta * lights_.environment(wi) * w;
         }
         return false;
@@ -215,7 +215,8 @@ bool PathIntegrator::scatter(const scenes::Material& m, int bounce, Interaction&
             const int li = src.kind == GeomSource::Mesh ? lights_.light_of_mesh(src.mesh)
                                                         : lights_.light_of_sphere(hit.prim_id);
             const float w =
-                bsdf_weight(li < 0 ? 0.0f : float(s_.light_samples) * lights_.pdf(size_t(li), n_here, wi, it.t, it.ng));
+                bsdf_weight(li < 0 ? 0.0f : float(s_.light_samples) *
+                                                  lights_.pdf(size_t(li), p_here, n_here, wi, it.t, it.ng, hit.prim_id));
             L += beta * Le * w;
         }
     }

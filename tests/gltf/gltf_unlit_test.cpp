@@ -121,7 +121,9 @@ TEST(GltfUnlit, CameraSeesTheBaseColourWhateverTheLights) {
         for (int c = 0; c < 3; ++c) EXPECT_NEAR(sum[c] / n, expected[c], 1e-5) << "channel " << c;
         // And the floor below it is lit: the lights are there (without lights, the
         // default environment; -H cannot find a point light, so it stays dark there).
-        if (variant != 3) EXPECT_GT(img.at(W / 2, H - 2)[kG], 0.0f);
+        if (variant != 3) {
+            EXPECT_GT(img.at(W / 2, H - 2)[kG], 0.0f);
+        }
     }
 }
 

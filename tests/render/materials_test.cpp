@@ -385,7 +385,7 @@ TEST(CourseLights, GlossyFloorSeesOnlyTheSampledAreaLight) {
 
 TEST(CourseLights, GlossyFloorAgreesAcrossModesWhenTheLightIsThePanel) {
     // When the area light and the panel describe the same rectangle, mesh mode (panel
-    // sampled by area, MIS with the BSDF, counted once) and course mode (area light
+    // sampled as a light, MIS with the BSDF, counted once) and course mode (area light
     // sampled, panel black to bounces) estimate the same direct light on a glossy floor.
     scenes::Material gold;
     gold.bsdf = scenes::BsdfKind::Microfacet;
