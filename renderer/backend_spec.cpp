@@ -60,22 +60,25 @@ BackendSpec parse_backend_spec(const std::string& spec) {
     return b;
 }
 
-void apply_isa(std::vector<BackendSpec>& specs, accel::Isa isa) {
-    if (isa == accel::Isa::Auto) return;
+namespace {
+/// Sets a custom option that a spec left at Auto (value 0 of both enums), marking the label.
+template <class T>
+void apply_custom(std::vector<BackendSpec>& specs, T accel::AccelOptions::*field, T value, const char* name) {
+    if (value == T{}) return;
     for (BackendSpec& s : specs)
-        if (s.backend == "custom" && s.options.isa == accel::Isa::Auto) {
-            s.options.isa = isa;
-            s.label += std::string(":") + accel::isa_name(isa);
+        if (s.backend == "custom" && s.options.*field == T{}) {
+            s.options.*field = value;
+            s.label += std::string(":") + name;
         }
+}
+}  // namespace
+
+void apply_isa(std::vector<BackendSpec>& specs, accel::Isa isa) {
+    apply_custom(specs, &accel::AccelOptions::isa, isa, accel::isa_name(isa));
 }
 
 void apply_layout(std::vector<BackendSpec>& specs, accel::NodeLayout layout) {
-    if (layout == accel::NodeLayout::Auto) return;
-    for (BackendSpec& s : specs)
-        if (s.backend == "custom" && s.options.nodes == accel::NodeLayout::Auto) {
-            s.options.nodes = layout;
-            s.label += std::string(":") + accel::layout_name(layout);
-        }
+    apply_custom(specs, &accel::AccelOptions::nodes, layout, accel::layout_name(layout));
 }
 
 std::string kernel_name(const BackendSpec& spec, const accel::BuildInfo& built) {

@@ -34,9 +34,9 @@ const char* layout_name(NodeLayout layout);
 bool parse_layout(const std::string& s, NodeLayout& out);
 /// Auto's threshold for quantized nodes, in primitives. Measured (RESULTS.md, "compressed
 /// nodes"): on the course meshes (<= 51k triangles, trees of a few MiB that stay in L2/L3)
-/// quantized nodes are 5-20 % slower, dequantizing costing ~25 instructions per node; on
-/// the 5M sphere (~290 MB of nodes and blocks) they are about even (diffuse +7 %, shadow
-/// -4..0 %), on a 15M sphere 10-14 % faster on shadow and diffuse rays.
+/// quantized nodes are 10-20 % slower, dequantizing costing ~23 instructions per node; on
+/// the 5M sphere (~290 MB of nodes and blocks) they are about even (diffuse +1..+12 %,
+/// shadow -7..+7 %), on a 15M sphere 10-15 % faster on shadow and diffuse rays.
 constexpr uint64_t kQuantizeFrom = 4000000;
 /// The layout Auto picks for a scene of `primitives` (any other value is returned
 /// unchanged): quantized from kQuantizeFrom primitives on, float below.
