@@ -41,8 +41,11 @@ bool BvhBase::build(std::span<const GeometryView> geometry, const AccelOptions& 
                                         : build_binary(geometry_, refs, opt.split, leaf_size_, opt.build_threads);
     // The block packing runs in parallel: on the build's threads, like the build.
     tbb::task_arena arena(opt.build_threads > 0 ? opt.build_threads : tbb::task_arena::automatic);
-    arena.execute([&] { wide_ = collapse(tree_, geometry_, opt.triangle); });
-    const bool compressed = quantized && quantize(wide_);
+    bool compressed = false;
+    arena.execute([&] {
+        wide_ = collapse(tree_, geometry_, opt.triangle);
+        compressed = quantized && quantize(wide_);
+    });
 
     const TreeFacts f = tree_facts(tree_.nodes);
     const char* split = opt.split == BvhSplit::Sah ? "sah" : opt.split == BvhSplit::Sbvh ? "sbvh" : "midpoint";

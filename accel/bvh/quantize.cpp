@@ -8,7 +8,11 @@
 // against the float value the kernel will compute (origin + q * 2^e rounds once: the
 // product of an 8-bit integer and a power of two is exact), so every dequantised box
 // contains its float box in float arithmetic, not merely in exact arithmetic.
+#include <atomic>
 #include <cmath>
+
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
 
 #include "accel/bvh/wide.h"
 
@@ -74,18 +78,23 @@ void dequantize(const QuantNode& n, int lane, float box[6]) {
 
 bool quantize(WideBvh& w, bool keep_float) {
     TraversalVector<QuantNode> q(w.nodes.size());
-    for (size_t k = 0; k < w.nodes.size(); ++k) {
-        const WideNode& n = w.nodes[k];
-        QuantNode& o = q[k];
-        o = QuantNode{};
-        // The collapse fills lanes from 0 and leaves the rest empty.
-        int lanes = 0;
-        while (lanes < kWidth && n.child[lanes] != WideNode::kEmpty) ++lanes;
-        o.valid = uint8_t((1u << lanes) - 1);
-        for (int i = 0; i < kWidth; ++i) o.child[i] = n.child[i], o.count[i] = n.count[i];
-        for (int a = 0; a < 3; ++a)
-            if (!axis(n, a, lanes, o)) return false;
-    }
+    // Nodes are independent: in parallel, on the caller's arena (the build's threads).
+    std::atomic<bool> ok{true};
+    tbb::parallel_for(tbb::blocked_range<size_t>(0, w.nodes.size(), 4096), [&](const tbb::blocked_range<size_t>& r) {
+        for (size_t k = r.begin(); k < r.end(); ++k) {
+            const WideNode& n = w.nodes[k];
+            QuantNode& o = q[k];
+            o = QuantNode{};
+            // The collapse fills lanes from 0 and leaves the rest empty.
+            int lanes = 0;
+            while (lanes < kWidth && n.child[lanes] != WideNode::kEmpty) ++lanes;
+            o.valid = uint8_t((1u << lanes) - 1);
+            for (int i = 0; i < kWidth; ++i) o.child[i] = n.child[i], o.count[i] = n.count[i];
+            for (int a = 0; a < 3; ++a)
+                if (!axis(n, a, lanes, o)) ok = false;
+        }
+    });
+    if (!ok) return false;
     w.qnodes = std::move(q);
     if (!keep_float) TraversalVector<WideNode>().swap(w.nodes);
     return true;
