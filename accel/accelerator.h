@@ -58,6 +58,9 @@ enum class BvhSplit : uint8_t { Midpoint, Sah, Sbvh };  // Sbvh: SAH + spatial s
 enum class EmbreeQuality : uint8_t { Low, Medium, High };
 /// Instruction set of the custom BVH's traversal kernel; Auto picks by CPUID at run time.
 enum class Isa : uint8_t { Auto, Sse2, Avx2, Avx512 };
+/// Custom BVH node layout: float child boxes (256-byte nodes) or quantized ones
+/// (128 bytes, Ylitie et al. 2017); Auto picks by the tree's size (accel/bvh/bvh.cpp).
+enum class NodeLayout : uint8_t { Auto, Float, Quantized };
 
 struct AccelOptions {
     TriangleTest triangle = TriangleTest::Fast;
@@ -70,6 +73,7 @@ struct AccelOptions {
     bool embree_count = false;
     int build_threads = 0;           ///< 0 = all cores
     Isa isa = Isa::Auto;             ///< custom BVH kernel (see accel/bvh/bvh.h)
+    NodeLayout nodes = NodeLayout::Auto;  ///< custom BVH node layout
 };
 
 /// Facts about a built accelerator, for the summary and the benchmarks.

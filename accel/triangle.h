@@ -18,7 +18,10 @@ struct WatertightRay {
     float sx = 0, sy = 0, sz = 1;
 
     WatertightRay() = default;
-    explicit WatertightRay(const Vec3f& dir) {
+    /// Always inlined: the per-ISA BVH kernels construct it, and an out-of-line copy would
+    /// be a weak symbol the linker could take from the AVX2 object for every caller
+    /// (tests/bvh/kernel_symbols.cmake).
+    [[gnu::always_inline]] explicit WatertightRay(const Vec3f& dir) {
         kz = max_dimension(vabs(dir));
         kx = kz + 1 == 3 ? 0 : kz + 1;
         ky = kx + 1 == 3 ? 0 : kx + 1;

@@ -174,6 +174,10 @@ int main(int argc, char** argv) {
     app.add_option("--isa", isa_arg, "Kernel of custom backends that name none: auto | sse2 | avx2 | avx512 "
                                      "(or name it per backend: custom:sah:sse2)")
         ->check(CLI::IsMember({"auto", "sse2", "avx2", "avx512"}));
+    std::string nodes_arg = "auto";
+    app.add_option("--nodes", nodes_arg, "Node layout of custom backends that name none: auto (quantized from 4M primitives) | float | quantized "
+                                         "(or per backend: custom:sah:quantized)")
+        ->check(CLI::IsMember({"auto", "float", "quantized"}));
     app.add_flag("--quick", quick, "Smoke run: 5000 rays, 1 repeat, default scene only unless --scene");
     app.add_flag("--no-course", no_course, "Skip the course's with/without-BVH comparison on cow");
     tools::parse_or_exit(app, argc, argv, "accel_bench");
@@ -244,6 +248,9 @@ int main(int argc, char** argv) {
             accel::Isa isa = accel::Isa::Auto;
             accel::parse_isa(isa_arg, isa);
             renderer::apply_isa(specs, isa);
+            accel::NodeLayout layout = accel::NodeLayout::Auto;
+            accel::parse_layout(nodes_arg, layout);
+            renderer::apply_layout(specs, layout);
         } catch (const std::invalid_argument& e) {
             fail(e.what());
         }
@@ -319,7 +326,7 @@ int main(int argc, char** argv) {
                     const double mr = c.rates[c.rates.size() / 2];
                     const size_t i = c.backend;
                     const auto& info = accels[i]->info();
-                    rows.push_back({name, tris, specs[i].label, renderer::kernel_name(specs[i]), renderer::ray_kind_name(kind), threads, mr, 0,
+                    rows.push_back({name, tris, specs[i].label, renderer::kernel_name(specs[i], info), renderer::ray_kind_name(kind), threads, mr, 0,
                                     c.stats.tests_per_ray(), c.stats.nodes_per_ray(), build_ms[i], info.bytes,
                                     info.counts_prims, info.counts_nodes, c.cpu / std::max(c.wall, 1e-9)});
                     rate[specs[i].label] = mr;

@@ -54,6 +54,9 @@ int main(int argc, char** argv) {
     std::string isa = "auto";
     app.add_option("--isa", isa, "Kernel of the custom backends: auto | sse2 | avx2 | avx512")
         ->check(CLI::IsMember({"auto", "sse2", "avx2", "avx512"}));
+    std::string nodes = "auto";
+    app.add_option("--nodes", nodes, "Node layout of the custom backends: auto (quantized from 4M primitives) | float | quantized")
+        ->check(CLI::IsMember({"auto", "float", "quantized"}));
     std::vector<double> only;
     app.add_option("--placement", only, "Only this placement: SCALE OFFSET (e.g. --placement 1e3 1e6)")
         ->expected(2);
@@ -96,7 +99,11 @@ int main(int argc, char** argv) {
     if (!no_embree && !have_embree) std::printf("embree: not in this build, skipped\n");
     std::vector<BackendCase> backends = backend_cases(have_embree);
     for (BackendCase& b : backends)
-        if (b.backend == "custom") accel::parse_isa(isa, b.options.isa);
+        if (b.backend == "custom") {
+            accel::parse_isa(isa, b.options.isa);
+            accel::parse_layout(nodes, b.options.nodes);
+            if (b.options.nodes != accel::NodeLayout::Auto) b.label += std::string("-") + nodes;
+        }
 
     std::ofstream out(csv);
     out << "scale,offset,mesh,backend,dropped,leak_rays,leaks,axis_rays,axis_leaks,vertex_rays,vertex_leaks,"
@@ -152,7 +159,7 @@ int main(int argc, char** argv) {
                        rate(sum.acne_false(1), sum.acne_rays(1)), rate(sum.acne_ambiguous(1), sum.acne_rays(1)),
                        sum.ref_rays, sum.wrong_miss, sum.max_rel_t, sum.max_rel_t_grazing, sum.max_t_over_bound);
             std::fflush(stdout);
-            if (bc.label == "custom-watertight" && sum.leaks > 0) {
+            if (bc.backend == "custom" && bc.options.triangle == accel::TriangleTest::Watertight && sum.leaks > 0) {
                 failed = true;
                 failures.push_back(fmt::format("{} {}: {} leaks", pl.label(), bc.label, sum.leaks));
             }

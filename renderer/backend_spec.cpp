@@ -21,6 +21,7 @@ BackendSpec parse_backend_spec(const std::string& spec) {
     std::string tri = "fast", split = "sah", quality = "high";
     bool robust = false, count = false;
     accel::Isa isa = accel::Isa::Auto;
+    accel::NodeLayout layout = accel::NodeLayout::Auto;
     unsigned leaf = 0;
     for (size_t i = 1; i < words.size(); ++i) {
         const std::string& w = words[i];
@@ -30,6 +31,7 @@ BackendSpec parse_backend_spec(const std::string& spec) {
             leaf = unsigned(std::stoul(w.substr(4)));
             if (leaf < 1 || leaf > 255) throw std::invalid_argument("backend spec '" + spec + "': leaf size 1..255");
         } else if (b.backend == "custom" && w != "auto" && accel::parse_isa(w, isa)) {
+        } else if (b.backend == "custom" && w != "auto" && accel::parse_layout(w, layout)) {
         } else if (b.backend == "embree" && (w == "low" || w == "medium" || w == "high")) quality = w;
         else if (b.backend == "embree" && w == "robust") robust = true;
         else if (b.backend == "embree" && w == "count") count = true;
@@ -46,28 +48,45 @@ BackendSpec parse_backend_spec(const std::string& spec) {
                                                      : accel::EmbreeQuality::High;
     b.options.embree_robust = robust;
     b.options.isa = isa;
+    b.options.nodes = layout;
     b.options.embree_count = count;
     // Normalised label: embree's triangle test only matters in counting mode.
     b.label = b.backend;
     if (b.backend == "custom") b.label += ":" + split + (leaf ? ":leaf" + std::to_string(leaf) : "");
     if (isa != accel::Isa::Auto) b.label += std::string(":") + accel::isa_name(isa);
+    if (layout != accel::NodeLayout::Auto) b.label += std::string(":") + accel::layout_name(layout);
     if (b.backend == "embree") b.label += ":" + quality + (robust ? ":robust" : "") + (count ? ":count" : "");
     if (b.backend != "embree" || count) b.label += ":" + tri;
     return b;
 }
 
-void apply_isa(std::vector<BackendSpec>& specs, accel::Isa isa) {
-    if (isa == accel::Isa::Auto) return;
+namespace {
+/// Sets a custom option that a spec left at Auto (value 0 of both enums), marking the label.
+template <class T>
+void apply_custom(std::vector<BackendSpec>& specs, T accel::AccelOptions::*field, T value, const char* name) {
+    if (value == T{}) return;
     for (BackendSpec& s : specs)
-        if (s.backend == "custom" && s.options.isa == accel::Isa::Auto) {
-            s.options.isa = isa;
-            s.label += std::string(":") + accel::isa_name(isa);
+        if (s.backend == "custom" && s.options.*field == T{}) {
+            s.options.*field = value;
+            s.label += std::string(":") + name;
         }
 }
+}  // namespace
 
-std::string kernel_name(const BackendSpec& spec) {
+void apply_isa(std::vector<BackendSpec>& specs, accel::Isa isa) {
+    apply_custom(specs, &accel::AccelOptions::isa, isa, accel::isa_name(isa));
+}
+
+void apply_layout(std::vector<BackendSpec>& specs, accel::NodeLayout layout) {
+    apply_custom(specs, &accel::AccelOptions::nodes, layout, accel::layout_name(layout));
+}
+
+std::string kernel_name(const BackendSpec& spec, const accel::BuildInfo& built) {
     if (spec.backend != "custom") return spec.backend;
-    return accel::isa_name(accel::resolve_isa(spec.options.isa));
+    // The layout as built (auto decides by the scene's size).
+    const bool quantized = built.backend.find(accel::layout_name(accel::NodeLayout::Quantized)) != std::string::npos;
+    return std::string(accel::isa_name(accel::resolve_isa(spec.options.isa))) + "/" +
+           accel::layout_name(quantized ? accel::NodeLayout::Quantized : accel::NodeLayout::Float);
 }
 
 std::vector<BackendSpec> parse_backend_specs(const std::string& list) {

@@ -17,16 +17,21 @@ struct BackendSpec {
 
 /// Parses one spec; throws std::invalid_argument naming the bad word. Words after the
 /// backend name, in any order: fast|watertight, sah|midpoint|sbvh, leafN,
-/// auto|sse2|avx2|avx512 (custom's kernel), low|medium|high, robust, count.
+/// auto|sse2|avx2|avx512 (custom's kernel), float|quantized (custom's node layout),
+/// low|medium|high, robust, count.
 BackendSpec parse_backend_spec(const std::string& spec);
 
 /// A tool's --isa: the kernel of every custom spec that did not name one (label gets
 /// ":ISA"). Auto changes nothing.
 void apply_isa(std::vector<BackendSpec>& specs, accel::Isa isa);
 
-/// The kernel a spec runs: custom's resolved ISA ("sse2", "avx2", "avx512") or the
-/// backend's name.
-std::string kernel_name(const BackendSpec& spec);
+/// A tool's --nodes: the node layout of every custom spec that did not name one (label
+/// gets ":LAYOUT"). Auto changes nothing.
+void apply_layout(std::vector<BackendSpec>& specs, accel::NodeLayout layout);
+
+/// The kernel a spec runs, given what its build reported: custom's resolved ISA and
+/// node layout ("avx2/float", "sse2/quantized") or the backend's name.
+std::string kernel_name(const BackendSpec& spec, const accel::BuildInfo& built);
 
 /// Comma-separated list of specs.
 std::vector<BackendSpec> parse_backend_specs(const std::string& list);

@@ -158,6 +158,9 @@ int main(int argc, char** argv) {
         ->check(CLI::IsMember({"low", "medium", "high"}));
     app.add_option("--isa", isa, "Custom BVH kernel: auto (by CPUID) | sse2 | avx2 | avx512")
         ->check(CLI::IsMember({"auto", "sse2", "avx2", "avx512"}));
+    std::string nodes = "auto";
+    app.add_option("--nodes", nodes, "Custom BVH node layout: auto (quantized from 4M primitives) | float | quantized (Ylitie 2017)")
+        ->check(CLI::IsMember({"auto", "float", "quantized"}));
     app.add_flag("--embree-robust", ao.embree_robust, "Embree robust traversal mode");
     app.add_flag("--embree-count", ao.embree_count,
                  "Embree counting mode: triangles through our intersector, so tests per ray are counted");
@@ -246,6 +249,7 @@ int main(int argc, char** argv) {
                                  : accel::BvhSplit::Sah;
     ao.triangle = tri == "watertight" ? accel::TriangleTest::Watertight : accel::TriangleTest::Fast;
     accel::parse_isa(isa, ao.isa);
+    accel::parse_layout(nodes, ao.nodes);
     ao.embree_quality = quality == "low"      ? accel::EmbreeQuality::Low
                         : quality == "medium" ? accel::EmbreeQuality::Medium
                                               : accel::EmbreeQuality::High;

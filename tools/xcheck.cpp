@@ -87,6 +87,9 @@ int main(int argc, char** argv) {
     std::string isa_arg = "auto";
     app.add_option("--isa", isa_arg, "Kernel of custom backends that name none: auto | sse2 | avx2 | avx512")
         ->check(CLI::IsMember({"auto", "sse2", "avx2", "avx512"}));
+    std::string nodes_arg = "auto";
+    app.add_option("--nodes", nodes_arg, "Node layout of custom backends that name none: auto (quantized from 4M primitives) | float | quantized")
+        ->check(CLI::IsMember({"auto", "float", "quantized"}));
     app.add_option("--dump", dump_path, "Write the disagreeing rays to FILE (replayable)");
     app.add_option("--replay", replay_path, "Trace the rays of FILE (from --dump) instead of generating rays")
         ->check(CLI::ExistingFile);
@@ -116,6 +119,9 @@ int main(int argc, char** argv) {
         accel::parse_isa(isa_arg, isa);
         std::vector<renderer::BackendSpec> all = renderer::parse_backend_specs(list);
         renderer::apply_isa(all, isa);
+        accel::NodeLayout layout = accel::NodeLayout::Auto;
+        accel::parse_layout(nodes_arg, layout);
+        renderer::apply_layout(all, layout);
         for (auto& s : all)
             if (s.label != ref.label) specs.push_back(s);
     } catch (const std::invalid_argument& e) {

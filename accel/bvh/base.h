@@ -22,7 +22,14 @@ public:
     const BuildInfo& info() const override;
     Bounds3f bounds() const override;
 
-    void build(std::span<const GeometryView> geometry, const AccelOptions& opt, const char* kernel);
+    /// Builds the tree; `quantized`: then compresses the wide nodes (quantize.cpp) and
+    /// returns false, leaving the float nodes, if that is impossible (a box too large
+    /// for an 8-bit grid with a float exponent), so the caller can run a float kernel.
+    bool build(std::span<const GeometryView> geometry, const AccelOptions& opt, const char* kernel,
+               bool quantized);
+    /// Takes over another instance's built data (a float kernel adopting the tree a
+    /// quantized one could not compress).
+    void adopt(BvhBase&& other);
     /// Fills hit for leaf-order slot `slot` found at (t, u, v).
     void finish(uint32_t slot, const Ray& ray, float t, float u, float v, Hit& hit) const;
 

@@ -30,7 +30,8 @@ void BvhBase::finish(uint32_t slot, const Ray& ray, float t, float u, float v, H
     hit = h;
 }
 
-void BvhBase::build(std::span<const GeometryView> geometry, const AccelOptions& opt, const char* kernel) {
+bool BvhBase::build(std::span<const GeometryView> geometry, const AccelOptions& opt, const char* kernel,
+                    bool quantized) {
     const auto start = std::chrono::steady_clock::now();
     geometry_.assign(geometry.begin(), geometry.end());
     leaf_size_ = std::clamp<uint32_t>(opt.leaf_size, 1u, Node::kCountMask);
@@ -40,12 +41,17 @@ void BvhBase::build(std::span<const GeometryView> geometry, const AccelOptions& 
                                         : build_binary(geometry_, refs, opt.split, leaf_size_, opt.build_threads);
     // The block packing runs in parallel: on the build's threads, like the build.
     tbb::task_arena arena(opt.build_threads > 0 ? opt.build_threads : tbb::task_arena::automatic);
-    arena.execute([&] { wide_ = collapse(tree_, geometry_, opt.triangle); });
+    bool compressed = false;
+    arena.execute([&] {
+        wide_ = collapse(tree_, geometry_, opt.triangle);
+        compressed = quantized && quantize(wide_);
+    });
 
     const TreeFacts f = tree_facts(tree_.nodes);
     const char* split = opt.split == BvhSplit::Sah ? "sah" : opt.split == BvhSplit::Sbvh ? "sbvh" : "midpoint";
     const char* test = opt.triangle == TriangleTest::Watertight ? "watertight" : "fast";
-    info_.backend = std::string("custom(") + split + ", " + test + ", " + kernel + ")";
+    info_.backend = std::string("custom(") + split + ", " + test + ", " + kernel + ", " +
+                    layout_name(compressed ? NodeLayout::Quantized : NodeLayout::Float) + ")";
     info_.primitives = refs.size();
     info_.nodes = tree_.nodes.size();
     info_.leaves = f.leaves;
@@ -58,14 +64,50 @@ void BvhBase::build(std::span<const GeometryView> geometry, const AccelOptions& 
     info_.counts_nodes = true;
     info_.counts_prims = true;
     info_.build_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    return compressed == quantized;
+}
+
+void BvhBase::adopt(BvhBase&& o) {
+    geometry_ = std::move(o.geometry_);
+    tree_ = std::move(o.tree_);
+    wide_ = std::move(o.wide_);
+    has_spheres_ = o.has_spheres_;
+    leaf_size_ = o.leaf_size_;
+    info_ = std::move(o.info_);
 }
 
 }  // namespace bvh
 
+const char* layout_name(NodeLayout layout) {
+    switch (layout) {
+        case NodeLayout::Float: return "float";
+        case NodeLayout::Quantized: return "quantized";
+        default: return "auto";
+    }
+}
+
+bool parse_layout(const std::string& s, NodeLayout& out) {
+    for (NodeLayout l : {NodeLayout::Auto, NodeLayout::Float, NodeLayout::Quantized})
+        if (s == layout_name(l)) return out = l, true;
+    return false;
+}
+
+NodeLayout resolve_layout(NodeLayout layout, uint64_t primitives) {
+    if (layout != NodeLayout::Auto) return layout;
+    return primitives >= kQuantizeFrom ? NodeLayout::Quantized : NodeLayout::Float;
+}
+
 std::unique_ptr<Accelerator> make_bvh(std::span<const GeometryView> geometry, const AccelOptions& options) {
     const Isa isa = resolve_isa(options.isa);
-    std::unique_ptr<bvh::BvhBase> b = bvh::make_kernel(isa, options.triangle);
-    b->build(geometry, options, isa_name(isa));
+    uint64_t prims = 0;
+    for (const GeometryView& g : geometry) prims += g.num_prims;
+    const bool quantized = resolve_layout(options.nodes, prims) == NodeLayout::Quantized;
+    std::unique_ptr<bvh::BvhBase> b = bvh::make_kernel(isa, options.triangle, quantized);
+    if (!b->build(geometry, options, isa_name(isa), quantized)) {
+        std::unique_ptr<bvh::BvhBase> f = bvh::make_kernel(isa, options.triangle, false);
+        f->adopt(std::move(*b));
+        return f;
+    }
     return b;
 }
 
@@ -184,13 +226,20 @@ std::optional<BvhReport> inspect_bvh(const Accelerator& accel) {
     // lane box inside the box its parent lane gave, leaf lanes containing their
     // primitives, and each block lane holding the scene's data (fast mode: the edges
     // the scalar test would compute, bit for bit).
+    // Quantized nodes are not nested (a child's grid may round past its parent's), so
+    // there each leaf's primitives are checked against every box on their path: the
+    // intersection of the ancestors' lane boxes is what `parent` carries down.
     const WideBvh& w = b->wide_;
-    r.wide_nodes = w.nodes.size();
+    const bool quant = !w.qnodes.empty();
+    r.quantized = quant;
+    const size_t wide_count = quant ? w.qnodes.size() : w.nodes.size();
+    r.wide_nodes = wide_count;
     r.blocks = w.blocks.size();
     r.filled_lanes = w.blocks.empty() ? 0.0 : double(order.size()) / (4.0 * double(w.blocks.size()));
     const bool edges = b->info().backend.find("fast") != std::string::npos;
-    if (nodes.empty() != w.nodes.empty()) fail(r.wide_ok, "wide tree missing or extra");
-    if (!w.nodes.empty()) {
+    if (nodes.empty() != (wide_count == 0)) fail(r.wide_ok, "wide tree missing or extra");
+    if (quant && !w.nodes.empty()) fail(r.wide_ok, "both float and quantized nodes kept");
+    if (wide_count != 0) {
         std::vector<uint32_t> wcovered(order.size(), 0);
         std::vector<uint32_t> block_uses(w.blocks.size(), 0);
         struct Item {
@@ -199,25 +248,37 @@ std::optional<BvhReport> inspect_bvh(const Accelerator& accel) {
         };
         std::vector<Item> stack{{0, nodes[0].bounds()}};
         uint64_t visited = 0;
-        while (!stack.empty() && visited <= w.nodes.size()) {
+        while (!stack.empty() && visited <= wide_count) {
             const Item it = stack.back();
             stack.pop_back();
             ++visited;
-            const WideNode& n = w.nodes[it.idx];
+            const uint32_t* child = quant ? w.qnodes[it.idx].child : w.nodes[it.idx].child;
+            const uint32_t* count = quant ? w.qnodes[it.idx].count : w.nodes[it.idx].count;
             for (int i = 0; i < kWidth; ++i) {
-                if (n.child[i] == WideNode::kEmpty) continue;
-                const Bounds3f lb{{n.b[0][i], n.b[1][i], n.b[2][i]}, {n.b[3][i], n.b[4][i], n.b[5][i]}};
-                if (!it.parent.contains(lb)) fail(r.wide_ok, "wide lane sticks out of its parent");
-                if (!(n.child[i] & WideNode::kLeaf)) {
-                    if (n.child[i] <= it.idx || n.child[i] >= w.nodes.size())
+                if (quant && ((w.qnodes[it.idx].valid >> i & 1) != (child[i] != WideNode::kEmpty)))
+                    fail(r.wide_ok, "quantized valid mask disagrees with the children");
+                if (child[i] == WideNode::kEmpty) continue;
+                float bx[6];
+                if (quant)
+                    dequantize(w.qnodes[it.idx], i, bx);
+                else
+                    for (int k = 0; k < 6; ++k) bx[k] = w.nodes[it.idx].b[k][i];
+                Bounds3f lb{{bx[0], bx[1], bx[2]}, {bx[3], bx[4], bx[5]}};
+                if (quant) {
+                    lb.lo = vmax(lb.lo, it.parent.lo), lb.hi = vmin(lb.hi, it.parent.hi);
+                } else if (!it.parent.contains(lb)) {
+                    fail(r.wide_ok, "wide lane sticks out of its parent");
+                }
+                if (!(child[i] & WideNode::kLeaf)) {
+                    if (child[i] <= it.idx || child[i] >= wide_count)
                         fail(r.wide_ok, "wide child index bad");
                     else
-                        stack.push_back({n.child[i], lb});
+                        stack.push_back({child[i], lb});
                     continue;
                 }
-                const uint32_t first = n.child[i] & ~WideNode::kLeaf;
-                const uint32_t nb = n.count[i] & ~WideNode::kSpheres;
-                const bool spheres = n.count[i] & WideNode::kSpheres;
+                const uint32_t first = child[i] & ~WideNode::kLeaf;
+                const uint32_t nb = count[i] & ~WideNode::kSpheres;
+                const bool spheres = count[i] & WideNode::kSpheres;
                 if (nb == 0 || uint64_t(first) + nb > w.blocks.size()) {
                     fail(r.wide_ok, "wide leaf block range bad");
                     continue;
@@ -255,7 +316,7 @@ std::optional<BvhReport> inspect_bvh(const Accelerator& accel) {
                 }
             }
         }
-        if (visited != w.nodes.size()) fail(r.wide_ok, "wide nodes unreachable or shared");
+        if (visited != wide_count) fail(r.wide_ok, "wide nodes unreachable or shared");
         for (uint32_t c : wcovered)
             if (c != 1) {
                 fail(r.wide_ok, "wide tree covers a slot " + std::to_string(c) + " times");

@@ -28,6 +28,19 @@ bool parse_isa(const std::string& s, Isa& out);
 bool cpu_has(Isa isa);
 /// The kernel Auto picks on this CPU; any other value is returned unchanged.
 Isa resolve_isa(Isa isa);
+/// "float", "quantized" ("auto" for Auto).
+const char* layout_name(NodeLayout layout);
+/// Parses auto|float|quantized; false for anything else.
+bool parse_layout(const std::string& s, NodeLayout& out);
+/// Auto's threshold for quantized nodes, in primitives. Measured (RESULTS.md, "compressed
+/// nodes"): on the course meshes (<= 51k triangles, trees of a few MiB that stay in L2/L3)
+/// quantized nodes are 10-20 % slower, dequantizing costing ~23 instructions per node; on
+/// the 5M sphere (~290 MB of nodes and blocks) they are about even (diffuse +1..+12 %,
+/// shadow -7..+7 %), on a 15M sphere 10-15 % faster on shadow and diffuse rays.
+constexpr uint64_t kQuantizeFrom = 4000000;
+/// The layout Auto picks for a scene of `primitives` (any other value is returned
+/// unchanged): quantized from kQuantizeFrom primitives on, float below.
+NodeLayout resolve_layout(NodeLayout layout, uint64_t primitives);
 /// Kernels compiled in that this CPU can run, narrowest first.
 std::vector<Isa> supported_isas();
 
@@ -56,6 +69,7 @@ struct BvhReport {
     /// The 8-wide tree traversal actually uses (collapsed from the binary one) covers
     /// every primitive once, with nested, containing boxes.
     uint64_t wide_nodes = 0, blocks = 0;
+    bool quantized = false;          ///< traversal reads compressed nodes (QuantNode)
     double filled_lanes = 0;         ///< primitives / (4 * blocks)
     bool wide_ok = true;
     std::vector<std::string> errors; ///< first few violations, human readable

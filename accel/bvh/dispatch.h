@@ -9,11 +9,12 @@
 
 namespace accel::bvh {
 
-std::unique_ptr<BvhBase> make_kernel_sse2(TriangleTest test);
-std::unique_ptr<BvhBase> make_kernel_avx2(TriangleTest test);
-std::unique_ptr<BvhBase> make_kernel_avx512(TriangleTest test);
+/// `quantized`: the kernel reads WideBvh::qnodes (QuantNode) instead of nodes.
+std::unique_ptr<BvhBase> make_kernel_sse2(TriangleTest test, bool quantized);
+std::unique_ptr<BvhBase> make_kernel_avx2(TriangleTest test, bool quantized);
+std::unique_ptr<BvhBase> make_kernel_avx512(TriangleTest test, bool quantized);
 
 /// The kernel for `isa` (Auto resolved first); throws AccelError if this CPU lacks it.
-std::unique_ptr<BvhBase> make_kernel(Isa isa, TriangleTest test);
+std::unique_ptr<BvhBase> make_kernel(Isa isa, TriangleTest test, bool quantized);
 
 }  // namespace accel::bvh

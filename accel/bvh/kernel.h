@@ -23,12 +23,20 @@
 #endif
 
 #include <cmath>
+#include <cstring>
+#include <type_traits>
 #include <utility>
 #include <limits>
 
 #include "accel/bvh/base.h"
 #include "accel/sphere.h"
 #include "accel/triangle.h"
+
+/// Forced inlining of the per-ray and per-node helpers: with several policies per file
+/// (float and quantized nodes) GCC's unit-growth limits otherwise leave some out of line
+/// (measured: Planes, LeafRay and the quantized node test became calls, ~40 more
+/// instructions per shadow ray).
+#define PT_INLINE __attribute__((always_inline))
 
 namespace accel::bvh::PT_KERNEL_NS {
 
@@ -45,7 +53,7 @@ constexpr float kFarScale = 1.0f + 2.0f * gamma_n(3);
 struct Planes {
     float org[3], inv[3];
     int near[3], far[3];
-    explicit Planes(const Ray& r) {
+    PT_INLINE explicit Planes(const Ray& r) {
         for (int a = 0; a < 3; ++a) {
             org[a] = r.org[a];
             inv[a] = 1.0f / r.dir[a];
@@ -56,7 +64,7 @@ struct Planes {
     }
     /// Scalar test of one box: the scene box, once per ray. NaN slab distances (a zero
     /// direction with the origin on the plane) are ignored, as by the SIMD min/max.
-    bool hit(const float* b, float t_min, float t_max) const {
+    PT_INLINE bool hit(const float* b, float t_min, float t_max) const {
         float t0 = t_min, t1 = kInfinity;
         for (int a = 0; a < 3; ++a) {
             const float tn = (b[near[a]] - org[a]) * inv[a], tf = (b[far[a]] - org[a]) * inv[a];
@@ -85,7 +93,7 @@ template <class V>
 struct BoxConstants {
     V o[3], inv[3], t_min, scale;
     int nx, ny, nz, fx, fy, fz;
-    BoxConstants(const Planes& p, float tmin) {
+    PT_INLINE BoxConstants(const Planes& p, float tmin) {
         for (int a = 0; a < 3; ++a) o[a] = splat<V>(p.org[a]), inv[a] = splat<V>(p.inv[a]);
         t_min = splat<V>(tmin), scale = splat<V>(kFarScale);
         nx = p.near[0], ny = p.near[1], nz = p.near[2], fx = p.far[0], fy = p.far[1], fz = p.far[2];
@@ -107,7 +115,7 @@ struct LeafRay {
     int kx, ky, kz;
     __m128 sx, sy, sz;
     template <class V>
-    LeafRay(const Ray& r, const WatertightRay& wr, const BoxConstants<V>& box) {
+    PT_INLINE LeafRay(const Ray& r, const WatertightRay& wr, const BoxConstants<V>& box) {
         for (int a = 0; a < 3; ++a) o[a] = low4(box.o[a]), d[a] = _mm_set1_ps(r.dir[a]);
         t_min = low4(box.t_min);
         kx = wr.kx, ky = wr.ky, kz = wr.kz;
@@ -118,7 +126,7 @@ struct LeafRay {
 inline __m128 ld(const float* p) { return _mm_load_ps(p); }
 
 /// Lanes that hold a primitive.
-inline unsigned filled(const Block& b) {
+PT_INLINE inline unsigned filled(const Block& b) {
     const __m128i none = _mm_set1_epi32(-1);
     const __m128i s = _mm_load_si128(reinterpret_cast<const __m128i*>(b.slot));
     return unsigned(_mm_movemask_ps(_mm_castsi128_ps(_mm_cmpeq_epi32(s, none)))) ^ 0xFu;
@@ -137,7 +145,7 @@ struct Lanes {
 
 /// Möller–Trumbore on four triangles with precomputed edges; the same operations, in
 /// the same order, as intersect_triangle_mt.
-inline Lanes tri4_mt(const Block& b, const LeafRay& r, float t_max) {
+PT_INLINE inline Lanes tri4_mt(const Block& b, const LeafRay& r, float t_max) {
     const __m128 e1x = ld(b.p[1][0]), e1y = ld(b.p[1][1]), e1z = ld(b.p[1][2]);
     const __m128 e2x = ld(b.p[2][0]), e2y = ld(b.p[2][1]), e2z = ld(b.p[2][2]);
     const __m128 dx = r.d[0], dy = r.d[1], dz = r.d[2];
@@ -169,7 +177,7 @@ inline Lanes tri4_mt(const Block& b, const LeafRay& r, float t_max) {
 /// Woop 2013 on four triangles; the same operations as intersect_triangle_wt, including
 /// its double-precision retry of an edge function that rounds to exactly zero (done per
 /// lane, only for the rare lanes that need it).
-inline Lanes tri4_wt(const Block& b, const LeafRay& r, float t_max) {
+PT_INLINE inline Lanes tri4_wt(const Block& b, const LeafRay& r, float t_max) {
     __m128 X[3], Y[3], Z[3];
     for (int k = 0; k < 3; ++k) {
         const __m128 ax = _mm_sub_ps(ld(b.p[k][r.kx]), r.o[r.kx]);
@@ -213,7 +221,7 @@ inline Lanes tri4_wt(const Block& b, const LeafRay& r, float t_max) {
 }
 
 template <TriangleTest Test>
-inline Lanes tri4(const Block& b, const LeafRay& r, float t_max) {
+PT_INLINE inline Lanes tri4(const Block& b, const LeafRay& r, float t_max) {
     if constexpr (Test == TriangleTest::Watertight) return tri4_wt(b, r, t_max);
     return tri4_mt(b, r, t_max);
 }
@@ -226,7 +234,7 @@ inline bool sphere_lane(const Block& b, int l, const Ray& ray, float t, float& t
 
 /// Portable child selection for policies without a vector form (SSE2): the hit lane
 /// with the smallest entry distance, and the other hit lanes pushed in lane order.
-inline int nearest_scalar(const float* dist, unsigned mask) {
+PT_INLINE inline int nearest_scalar(const float* dist, unsigned mask) {
     int best = __builtin_ctz(mask);
     for (mask &= mask - 1; mask; mask &= mask - 1) {
         const int i = __builtin_ctz(mask);
@@ -234,13 +242,24 @@ inline int nearest_scalar(const float* dist, unsigned mask) {
     }
     return best;
 }
-inline unsigned push_scalar(const WideNode& n, unsigned mask, uint32_t* ref, uint32_t* count) {
+template <class N>
+PT_INLINE inline unsigned push_scalar(const N& n, unsigned mask, uint32_t* ref, uint32_t* count) {
     unsigned k = 0;
     for (; mask; mask &= mask - 1, ++k) {
         const int i = __builtin_ctz(mask);
         ref[k] = n.child[i], count[k] = n.count[i];
     }
     return k;
+}
+
+/// The node array a policy's test reads: P::Node is WideNode (float child boxes) or
+/// QuantNode (compressed, Ylitie et al. 2017); both share the child/count encoding.
+template <class Node>
+inline const Node* node_array(const WideBvh& w) {
+    if constexpr (std::is_same_v<Node, QuantNode>)
+        return w.qnodes.empty() ? nullptr : w.qnodes.data();
+    else
+        return w.nodes.empty() ? nullptr : w.nodes.data();
 }
 
 /// Returns the leaf-order slot of the closest primitive hit in [ray.t_min, t], or
@@ -252,7 +271,8 @@ inline unsigned push_scalar(const WideNode& n, unsigned mask, uint32_t* ref, uin
 template <class P, TriangleTest Test, bool Count, bool HasSpheres>
 uint32_t traverse(const WideBvh& w, const Ray& ray_in, float& t_io, float& u_out, float& v_out,
                   TraceStats& stats) {
-    if (w.nodes.empty()) return Block::kNone;
+    const typename P::Node* nodes = node_array<typename P::Node>(w);
+    if (!nodes) return Block::kNone;
     // Local copies: through references every store to t could alias the ray and the
     // node data (all floats), forcing reloads in the innermost loop.
     const Ray ray = ray_in;
@@ -271,7 +291,6 @@ uint32_t traverse(const WideBvh& w, const Ray& ray_in, float& t_io, float& u_out
     const WatertightRay wr = Test == TriangleTest::Watertight ? WatertightRay(ray.dir) : WatertightRay();
     const typename P::Box box(pl, ray.t_min);
     const LeafRay lr(ray, wr, box);
-    const WideNode* nodes = w.nodes.data();
     const Block* blocks = w.blocks.data();
 
     struct Entry {
@@ -308,7 +327,7 @@ uint32_t traverse(const WideBvh& w, const Ray& ray_in, float& t_io, float& u_out
                 } while (hit);
             }
         } else {
-            const WideNode& n = nodes[ref];
+            const auto& n = nodes[ref];
             if constexpr (Count) ++boxes;
             alignas(32) float dist[kWidth];
             unsigned mask = P::test(n, box, t, dist);
@@ -374,7 +393,8 @@ uint32_t traverse(const WideBvh& w, const Ray& ray_in, float& t_io, float& u_out
 /// Counting as in traverse.
 template <class P, TriangleTest Test, bool Count, bool HasSpheres>
 bool occlude(const WideBvh& w, const Ray& ray_in, TraceStats& stats) {
-    if (w.nodes.empty()) return false;
+    const typename P::Node* nodes = node_array<typename P::Node>(w);
+    if (!nodes) return false;
     const Ray ray = ray_in;
     const float t = ray.t_max;
     uint64_t boxes = 1, tests = 0;
@@ -387,7 +407,6 @@ bool occlude(const WideBvh& w, const Ray& ray_in, TraceStats& stats) {
     const WatertightRay wr = Test == TriangleTest::Watertight ? WatertightRay(ray.dir) : WatertightRay();
     const typename P::Box box(pl, ray.t_min);
     const LeafRay lr(ray, wr, box);
-    const WideNode* nodes = w.nodes.data();
     const Block* blocks = w.blocks.data();
     // P::push stores a whole vector of kWidth references; the slack keeps the last one
     // inside the arrays.
@@ -410,7 +429,7 @@ bool occlude(const WideBvh& w, const Ray& ray_in, TraceStats& stats) {
                 if (tri4<Test>(*b, lr, t).mask) return finish(true);
             }
         } else {
-            const WideNode& n = nodes[ref];
+            const auto& n = nodes[ref];
             if constexpr (Count) ++boxes;
             alignas(32) float dist[kWidth];
             unsigned mask = P::test(n, box, t, dist);

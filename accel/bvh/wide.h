@@ -35,6 +35,27 @@ struct alignas(64) WideNode {
 };
 static_assert(sizeof(WideNode) == 32 * kWidth);
 
+/// The compressed wide node (Ylitie, Karras, Laine 2017, "Efficient Incoherent Ray
+/// Traversal on GPUs Through Compressed Wide BVHs", section 3.1; Embree's
+/// QuantizedBaseNode is the same idea on CPUs): the eight child boxes as 8-bit offsets
+/// on a per-node grid, origin[a] + q * 2^(exp[a] - 127), rounded outward so each is a
+/// superset of the child's float box. 128 bytes (two cache lines) instead of 256, for
+/// trees whose nodes miss the caches. Dequantisation is exact up to the one rounding of
+/// the addition (q * 2^e is exact), so the kernel tests the very float box quantize.cpp
+/// checked, with the float node's own slab test: a ray the float node lets through
+/// passes here too (every operation of that test is monotone in the box), and no hit is
+/// lost. Empty lanes are cleared by `valid`, not by an inverted box (an 8-bit grid
+/// cannot express +-inf).
+struct alignas(64) QuantNode {
+    float origin[3];         ///< grid origin per axis (the node's box low corner)
+    uint8_t exp[3];          ///< grid step 2^(exp - 127), a float's biased exponent
+    uint8_t valid;           ///< bit i: lane i holds a child
+    uint8_t q[6][kWidth];    ///< [lo.x, lo.y, lo.z, hi.x, hi.y, hi.z][lane], rows as WideNode::b
+    uint32_t child[kWidth];  ///< as WideNode::child (interior children index QuantNodes)
+    uint32_t count[kWidth];  ///< as WideNode::count
+};
+static_assert(sizeof(QuantNode) == 16 * kWidth);
+
 /// Four primitives of one leaf, SoA. Triangles, fast mode: v0 and the precomputed edges
 /// e1 = v1 - v0, e2 = v2 - v0 (the same float subtractions the scalar test makes, so the
 /// results are bit-identical to naive's). Watertight mode: v0, v1, v2 as stored in the
@@ -77,7 +98,10 @@ template <typename T>
 using TraversalVector = std::vector<T, TraversalAllocator<T>>;
 
 struct WideBvh {
-    TraversalVector<WideNode> nodes;  ///< nodes[0] is the root (if any primitive)
+    /// nodes[0] is the root (if any primitive). Emptied by quantize(), which moves the
+    /// tree to qnodes (same indices): traversal reads one layout or the other.
+    TraversalVector<WideNode> nodes;
+    TraversalVector<QuantNode> qnodes;
     TraversalVector<Block> blocks;    ///< leaf blocks, in the order collapse reaches them
     float root[6] = {};               ///< scene box, tested once per ray before SIMD work
 };
@@ -88,7 +112,17 @@ WideBvh collapse(const BinaryTree& tree, std::span<const GeometryView> geometry,
 
 /// Bytes the traversal arrays occupy.
 inline uint64_t wide_bytes(const WideBvh& w) {
-    return w.nodes.capacity() * sizeof(WideNode) + w.blocks.capacity() * sizeof(Block);
+    return w.nodes.capacity() * sizeof(WideNode) + w.qnodes.capacity() * sizeof(QuantNode) +
+           w.blocks.capacity() * sizeof(Block);
 }
+
+/// Builds w.qnodes from w.nodes (quantize.cpp). Returns false, leaving w unchanged, if
+/// some node's box cannot be put on an 8-bit grid with a float exponent (a box spanning
+/// more than 2^127 * 255, or non-finite); on success w.nodes is released unless
+/// keep_float (tests compare the two).
+bool quantize(WideBvh& w, bool keep_float = false);
+
+/// Lane i's box of a quantized node as the kernel computes it: [lo xyz, hi xyz].
+void dequantize(const QuantNode& n, int lane, float box[6]);
 
 }  // namespace accel::bvh

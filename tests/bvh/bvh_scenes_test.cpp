@@ -14,6 +14,7 @@
 #include "accel/accelerator.h"
 #include "accel/bvh/bvh.h"
 #include "accel/bvh/build.h"
+#include "accel/bvh/wide.h"
 #include "accel/naive/naive.h"
 #include "renderer/camera.h"
 #include "renderer/scene_geometry.h"
@@ -130,6 +131,21 @@ TEST_P(BvhScenes, InvariantsAndSahBeatsMidpoint) {
     }
     EXPECT_LT(cost[0], cost[1]);
     EXPECT_LE(cost[2], cost[0] * 1.05);  // spatial splits are only taken where the SAH gains
+    // The compressed layout (Ylitie et al. 2017) passes the same inspection (every
+    // primitive inside every box on its path), and the bytes per triangle traversal reads.
+    AccelOptions q = options(BvhSplit::Sah, TriangleTest::Fast);
+    q.nodes = NodeLayout::Quantized;
+    auto a = make_bvh(l->views(), q);
+    auto rep = inspect_bvh(*a);
+    ASSERT_TRUE(rep);
+    for (const std::string& e : rep->errors) ADD_FAILURE() << e;
+    EXPECT_TRUE(rep->ok());
+    EXPECT_TRUE(rep->quantized);
+    const double tris = double(std::max<uint64_t>(1, rep->primitives));
+    std::printf("%s traversal bytes/triangle: float nodes %.1f, quantized %.1f (%llu wide nodes, %llu blocks)\n",
+                GetParam(), double(rep->wide_nodes * sizeof(bvh::WideNode) + rep->blocks * sizeof(bvh::Block)) / tris,
+                double(rep->wide_nodes * sizeof(bvh::QuantNode) + rep->blocks * sizeof(bvh::Block)) / tris,
+                (unsigned long long)rep->wide_nodes, (unsigned long long)rep->blocks);
 }
 
 TEST_P(BvhScenes, AgreesWithNaive) {

@@ -15,6 +15,7 @@
 #include "accel/bvh/base.h"
 #include "accel/bvh/bvh.h"
 #include "accel/bvh/build.h"
+#include "accel/bvh/wide.h"
 #include "accel/naive/naive.h"
 #include "accel/primitive.h"
 
@@ -129,6 +130,7 @@ Spheres random_spheres(int n, uint32_t seed) {
 }
 
 constexpr BvhSplit kSplits[] = {BvhSplit::Sah, BvhSplit::Midpoint, BvhSplit::Sbvh};
+constexpr NodeLayout kLayouts[] = {NodeLayout::Float, NodeLayout::Quantized};
 
 AccelOptions options(BvhSplit split, TriangleTest test, uint32_t leaf_size = 4) {
     AccelOptions o;
@@ -343,11 +345,18 @@ void agree(std::span<const GeometryView> geom, std::span<const Vec3f> targets, u
         if (!fast_too && test == TriangleTest::Fast) continue;
         auto naive = make_naive(geom, options(BvhSplit::Sah, test));
         for (BvhSplit split : kSplits)
-          for (Isa isa : kernels_to_test()) {
-            SCOPED_TRACE(name(split, test) + " " + isa_name(isa));
+          for (Isa isa : kernels_to_test())
+           for (NodeLayout layout : kLayouts) {
+            SCOPED_TRACE(name(split, test) + " " + isa_name(isa) + " " + layout_name(layout));
             AccelOptions o = options(split, test);
             o.isa = isa;
+            o.nodes = layout;
             auto bvh = make_bvh(geom, o);
+            // Every kernel runs the layout it was asked for (no scene here is too large
+            // for quantized boxes), and the compressed tree passes the same inspection.
+            const auto rep = inspect_bvh(*bvh);
+            EXPECT_EQ(rep->quantized, layout == NodeLayout::Quantized);
+            EXPECT_TRUE(rep->wide_ok && rep->gathered_ok);
             EXPECT_EQ(bvh->info().primitives, naive->info().primitives);
             EXPECT_EQ(bvh->info().dropped, naive->info().dropped);
             Compare cmp{geom, test};
@@ -384,10 +393,12 @@ TEST(BvhInvariants, SahCostLowerThanMidpoint) {
         auto mid = make_bvh({&v, 1}, options(BvhSplit::Midpoint, TriangleTest::Fast));
         EXPECT_LT(sah->info().sah_cost, mid->info().sah_cost);
         const std::string k = isa_name(resolve_isa(Isa::Auto));
-        EXPECT_EQ(sah->info().backend, "custom(sah, fast, " + k + ")");
-        EXPECT_EQ(mid->info().backend, "custom(midpoint, fast, " + k + ")");
-        auto wt = make_bvh({&v, 1}, options(BvhSplit::Midpoint, TriangleTest::Watertight));
-        EXPECT_EQ(wt->info().backend, "custom(midpoint, watertight, " + k + ")");
+        EXPECT_EQ(sah->info().backend, "custom(sah, fast, " + k + ", float)");
+        EXPECT_EQ(mid->info().backend, "custom(midpoint, fast, " + k + ", float)");
+        AccelOptions wo = options(BvhSplit::Midpoint, TriangleTest::Watertight);
+        wo.nodes = NodeLayout::Quantized;
+        auto wt = make_bvh({&v, 1}, wo);
+        EXPECT_EQ(wt->info().backend, "custom(midpoint, watertight, " + k + ", quantized)");
     }
 }
 
@@ -779,10 +790,14 @@ TEST(BvhKernels, EveryKernelReturnsBitIdenticalHits) {
         o.isa = Isa::Sse2;
         auto base = make_bvh({&v, 1}, o);
         std::vector<Ray> rays = make_rays(base->bounds(), {}, 32, 4000);
-        for (Isa isa : kernels_to_test()) {
+        for (Isa isa : kernels_to_test())
+          for (NodeLayout layout : kLayouts) {
+            // Quantized boxes only enlarge the float ones: the same hits, bit for bit.
             o.isa = isa;
+            o.nodes = layout;
             auto k = make_bvh({&v, 1}, o);
-            EXPECT_NE(k->info().backend.find(isa_name(isa)), std::string::npos) << k->info().backend;
+            EXPECT_NE(k->info().backend.find(std::string(isa_name(isa)) + ", " + layout_name(layout)), std::string::npos)
+                << k->info().backend;
             int diff = 0, hits = 0;
             TraceStats sa, sb;
             for (const Ray& r : rays) {
@@ -793,13 +808,113 @@ TEST(BvhKernels, EveryKernelReturnsBitIdenticalHits) {
                                             std::memcmp(&a.u, &b.u, 4) || std::memcmp(&a.v, &b.v, 4)));
                 diff += base->occluded(r, sa) != k->occluded(r, sb);
             }
-            EXPECT_EQ(diff, 0) << isa_name(isa);
+            EXPECT_EQ(diff, 0) << isa_name(isa) << " " << layout_name(layout);
             EXPECT_GT(hits, 100);
-            // Same tree, same rules: the counters agree too.
-            EXPECT_EQ(sa.nodes_visited, sb.nodes_visited);
-            EXPECT_EQ(sa.prim_tests, sb.prim_tests);
+            // Same tree, same rules: the counters agree too (larger boxes visit more).
+            if (layout == NodeLayout::Float) {
+                EXPECT_EQ(sa.nodes_visited, sb.nodes_visited);
+                EXPECT_EQ(sa.prim_tests, sb.prim_tests);
+            } else {
+                EXPECT_GE(sb.nodes_visited, sa.nodes_visited);
+                EXPECT_GE(sb.prim_tests, sa.prim_tests);
+            }
         }
     }
+}
+
+/// Builds the float wide tree of `m` the way make_bvh does, quantizes a copy keeping
+/// the float nodes, and checks every lane: the compressed box contains the float box
+/// in float arithmetic (as the kernel dequantizes it), is at most about two grid steps
+/// larger per side, and the children, counts and valid mask are carried over.
+void expect_quantized_contains(Mesh& m, BvhSplit split) {
+    using namespace accel::bvh;
+    GeometryView v = m.view();
+    uint64_t dropped = 0;
+    const std::vector<PrimRef> refs = collect_primitives({&v, 1}, dropped);
+    const BinaryTree tree = build_binary({&v, 1}, refs, split, 4, 1);
+    WideBvh w = collapse(tree, {&v, 1}, TriangleTest::Fast);
+    ASSERT_TRUE(quantize(w, true));
+    ASSERT_EQ(w.qnodes.size(), w.nodes.size());
+    int lanes = 0, loose = 0;
+    for (size_t k = 0; k < w.nodes.size(); ++k) {
+        const WideNode& f = w.nodes[k];
+        const QuantNode& q = w.qnodes[k];
+        for (int i = 0; i < kWidth; ++i) {
+            EXPECT_EQ(q.child[i], f.child[i]);
+            EXPECT_EQ(q.count[i], f.count[i]);
+            EXPECT_EQ(bool(q.valid >> i & 1), f.child[i] != WideNode::kEmpty);
+            if (f.child[i] == WideNode::kEmpty) continue;
+            ++lanes;
+            float b[6];
+            dequantize(q, i, b);
+            for (int a = 0; a < 3; ++a) {
+                EXPECT_LE(b[a], f.b[a][i]) << "node " << k << " lane " << i << " axis " << a;
+                EXPECT_GE(b[a + 3], f.b[a + 3][i]) << "node " << k << " lane " << i << " axis " << a;
+                const float step = std::ldexp(1.0f, q.exp[a] - 127);
+                const float slack_lo = 2 * std::max(step, std::abs(f.b[a][i]) * 1.2e-7f);
+                const float slack_hi = 2 * std::max(step, std::abs(f.b[a + 3][i]) * 1.2e-7f);
+                loose += b[a] < f.b[a][i] - slack_lo || b[a + 3] > f.b[a + 3][i] + slack_hi;
+            }
+        }
+    }
+    EXPECT_GT(lanes, 0);
+    EXPECT_EQ(loose, 0) << "quantized bounds looser than two grid steps";
+}
+
+TEST(BvhQuantized, EveryChildBoxContainsItsFloatBox) {
+    // Ordinary meshes, a mesh a million units from the origin (grid steps below the
+    // float spacing of the origin), exponentially spaced triangles (one node spans 2^-120
+    // .. 2^120) and flat boxes (a grid: zero extent in z).
+    Mesh far = soup(3000, 0.01f, 41);
+    for (Vec3f& p : far.pos) p = p + Vec3f(1e6f, -3e6f, 2.5e5f);
+    Mesh expo;
+    for (int k = -120; k < 120; ++k) {
+        const float x = std::ldexp(1.0f, k);
+        expo.tri(expo.add({x, 0, 0}), expo.add({x, 1, 0}), expo.add({x, 0, 1}));
+    }
+    Mesh meshes[] = {uv_sphere(40, 60, {0.1f, 0, 0}, 1.0f), soup(5000, 0.05f, 40), slivers(3, 500), far, expo, grid(20)};
+    for (Mesh& m : meshes)
+        for (BvhSplit split : {BvhSplit::Sah, BvhSplit::Midpoint}) expect_quantized_contains(m, split);
+}
+
+TEST(BvhQuantized, FarOffsetMeshAgreesWithNaive) {
+    Mesh m = soup(2000, 0.01f, 42);
+    for (Vec3f& p : m.pos) p = p + Vec3f(1e6f, -3e6f, 2.5e5f);
+    GeometryView v = m.view();
+    agree({&v, 1}, mesh_targets(m, 200), 43, 300);
+}
+
+TEST(BvhQuantized, BoxesBeyondTheGridFallBackToFloatNodes) {
+    // Two triangles 6e38 apart: no float exponent puts that extent on 255 steps, so the
+    // quantized request falls back to float nodes (and says so) instead of failing.
+    Mesh m;
+    m.tri(m.add({-3e38f, 0, 0}), m.add({-3e38f, 1, 0}), m.add({-3e38f, 0, 1}));
+    m.tri(m.add({3e38f, 0, 0}), m.add({3e38f, 1, 0}), m.add({3e38f, 0, 1}));
+    GeometryView v = m.view();
+    AccelOptions o = options(BvhSplit::Sah, TriangleTest::Fast);
+    o.nodes = NodeLayout::Quantized;
+    auto bvh = make_bvh({&v, 1}, o);
+    EXPECT_NE(bvh->info().backend.find(", float)"), std::string::npos) << bvh->info().backend;
+    EXPECT_FALSE(inspect_bvh(*bvh)->quantized);
+    Hit h;
+    TraceStats s;
+    EXPECT_TRUE(bvh->intersect(Ray{{3e38f, 0.25f, 0.25f}, {-1, 0, 0}, 0.0f, kInf}, h, s));
+    EXPECT_TRUE(bvh->occluded(Ray{{-2e38f, 0.25f, 0.25f}, {-1, 0, 0}, 0.0f, kInf}, s));
+}
+
+TEST(BvhQuantized, AutoLayoutByTreeSize) {
+    NodeLayout l;
+    EXPECT_TRUE(parse_layout("quantized", l));
+    EXPECT_EQ(l, NodeLayout::Quantized);
+    EXPECT_FALSE(parse_layout("q8", l));
+    EXPECT_EQ(resolve_layout(NodeLayout::Auto, kQuantizeFrom - 1), NodeLayout::Float);
+    EXPECT_EQ(resolve_layout(NodeLayout::Auto, kQuantizeFrom), NodeLayout::Quantized);
+    EXPECT_EQ(resolve_layout(NodeLayout::Quantized, 100), NodeLayout::Quantized);
+    EXPECT_EQ(resolve_layout(NodeLayout::Float, kQuantizeFrom), NodeLayout::Float);
+    Mesh m = grid(4);
+    GeometryView v = m.view();
+    EXPECT_NE(make_bvh({&v, 1}, options(BvhSplit::Sah, TriangleTest::Fast))->info().backend.find(", float)"),
+              std::string::npos);
 }
 
 TEST(BvhKernels, UncountedPathCountsOnlyRays) {
