@@ -74,6 +74,53 @@ double measure(const accel::Accelerator& a, const renderer::RaySet& set, int thr
     return rates[rates.size() / 2];
 }
 
+/// Build time alone at each thread count: rounds of (threads, backend) cells, so the
+/// machine's drift spreads over all cells; the median per cell is printed with the CPUs
+/// the builds obtained (process CPU seconds / wall seconds), and its ratio to
+/// embree:high's at the same thread count.
+void build_study(const std::string& name, const renderer::SceneGeometry& geometry,
+                 const std::vector<renderer::BackendSpec>& specs, const std::vector<int>& threads, int rounds) {
+    struct Cell {
+        int threads;
+        size_t spec;
+        std::vector<double> ms;
+        double wall = 0, cpu = 0;
+    };
+    std::vector<Cell> cells;
+    for (int t : threads)
+        for (size_t i = 0; i < specs.size(); ++i) cells.push_back({t, i, {}, 0, 0});
+    for (int r = 0; r < rounds; ++r)
+        for (Cell& c : cells) {
+            accel::AccelOptions o = specs[c.spec].options;
+            o.build_threads = c.threads;
+            const double cpu0 = cpu_seconds();
+            const auto t0 = Clock::now();
+            auto a = renderer::build_accelerator(specs[c.spec].backend, geometry, o, false);
+            const double s = std::chrono::duration<double>(Clock::now() - t0).count();
+            c.cpu += cpu_seconds() - cpu0;
+            c.wall += s;
+            c.ms.push_back(1e3 * s);
+            std::fprintf(stderr, "[accel_bench] %s build %s, %d threads, round %d: %.1f ms\n", name.c_str(),
+                         specs[c.spec].label.c_str(), c.threads, r + 1, 1e3 * s);
+        }
+    std::printf("build study: %s (median of %d builds per cell; threads 0 = all cores)\n", name.c_str(), rounds);
+    std::printf("  %-24s %7s %10s %6s %18s\n", "backend", "threads", "build ms", "cpus", "vs embree:high");
+    for (Cell& c : cells) {
+        std::sort(c.ms.begin(), c.ms.end());
+        const double med = c.ms[c.ms.size() / 2];
+        double ref = 0;
+        for (Cell& e : cells)
+            if (e.threads == c.threads && specs[e.spec].label == "embree:high") {
+                std::vector<double> m = e.ms;
+                std::sort(m.begin(), m.end());
+                ref = m[m.size() / 2];
+            }
+        std::printf("  %-24s %7d %10.1f %6.2f %18s\n", specs[c.spec].label.c_str(), c.threads, med,
+                    c.cpu / std::max(c.wall, 1e-9), ref > 0 ? fmt::format("{:.2f}x", med / ref).c_str() : "-");
+    }
+    std::fflush(stdout);
+}
+
 /// The course write-ups' comparison: cow at 800x600, 1 spp, normal shading, without and
 /// with a BVH, printed with the course's lines.
 void course_comparison(const std::string& path, int w, int h) {
@@ -119,6 +166,10 @@ int main(int argc, char** argv) {
     app.add_option("--repeats", repeats, "Timed repeats; the median is reported (default 3)");
     app.add_option("--build-repeats", build_repeats, "Builds per backend; the median time is reported (default 1)");
     app.add_option("--threads", thread_counts, "Thread counts (default: 1 and all cores)");
+    std::vector<int> build_threads;
+    app.add_option("--build-threads", build_threads,
+                   "Also time the builds alone at these thread counts (0 = all cores), every backend "
+                   "interleaved in each of --build-repeats rounds, with the CPUs each build obtained");
     std::string isa_arg = "auto";
     app.add_option("--isa", isa_arg, "Kernel of custom backends that name none: auto | sse2 | avx2 | avx512 "
                                      "(or name it per backend: custom:sah:sse2)")
@@ -204,6 +255,8 @@ int main(int argc, char** argv) {
             fail(e.what());
         }
         renderer::SceneGeometry geometry(scene);
+        if (!build_threads.empty()) build_study(std::filesystem::path(path).filename().string(), geometry, specs,
+                                                build_threads, std::max(1, build_repeats));
         std::vector<std::unique_ptr<accel::Accelerator>> accels;
         std::vector<double> build_ms;
         for (const auto& s : specs) {

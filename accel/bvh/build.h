@@ -71,4 +71,11 @@ BinaryTree build_sbvh(std::span<const GeometryView> geometry, const std::vector<
 
 TreeFacts tree_facts(const std::vector<Node>& nodes);
 
+/// For storage about to be written for the first time (a reserved std::vector's, say):
+/// advises it as transparent huge pages and faults its pages in on the calling arena's
+/// threads. A std::vector then clears it on one thread, and on this machine the page
+/// faults, not the clearing, were most of that serial time (they cost ~1-2 ms per MB
+/// for fresh memory: `perf` of the 5M-triangle build, benchmarks/RESULTS.md).
+void prepare_fresh(void* p, size_t bytes);
+
 }  // namespace accel::bvh

@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "accel/accelerator.h"
+#include "accel/bvh/base.h"
 #include "accel/bvh/bvh.h"
 #include "accel/bvh/build.h"
 #include "accel/bvh/wide.h"
@@ -463,6 +464,8 @@ TEST(BvhInvariants, BuildIsIndependentOfThreadCount) {
         one.build_threads = 1;
         AccelOptions all = one;
         all.build_threads = 0;
+        AccelOptions two = one;
+        two.build_threads = 2;  // parallel paths even where "all cores" is one
         auto a = make_bvh({&v, 1}, one);
         auto b = make_bvh({&v, 1}, all);
         expect_valid(*a, 4, v.num_prims);
@@ -470,6 +473,37 @@ TEST(BvhInvariants, BuildIsIndependentOfThreadCount) {
         EXPECT_EQ(inspect_bvh(*a)->references, inspect_bvh(*b)->references);
         EXPECT_EQ(a->info().nodes, b->info().nodes);
         EXPECT_EQ(a->info().sah_cost, b->info().sah_cost);
+        // Not only the same counts: the same arrays, node for node, after the parallel
+        // build, the parallel join of its subtrees and the parallel collapse.
+        auto c = make_bvh({&v, 1}, two);
+        const auto& x = dynamic_cast<const bvh::BvhBase&>(*a);
+        for (const auto* y : {&dynamic_cast<const bvh::BvhBase&>(*b), &dynamic_cast<const bvh::BvhBase&>(*c)}) {
+            ASSERT_EQ(x.tree_.nodes.size(), y->tree_.nodes.size());
+            for (size_t i = 0; i < x.tree_.nodes.size(); ++i) {
+                const bvh::Node &p = x.tree_.nodes[i], &q = y->tree_.nodes[i];
+                ASSERT_TRUE(p.offset == q.offset && p.meta == q.meta && p.bounds().lo == q.bounds().lo &&
+                            p.bounds().hi == q.bounds().hi)
+                    << "binary node " << i;
+            }
+            ASSERT_EQ(x.tree_.order.size(), y->tree_.order.size());
+            for (size_t i = 0; i < x.tree_.order.size(); ++i)
+                ASSERT_TRUE(x.tree_.order[i].geom == y->tree_.order[i].geom &&
+                            x.tree_.order[i].prim == y->tree_.order[i].prim)
+                    << "slot " << i;
+            ASSERT_EQ(x.wide_.nodes.size(), y->wide_.nodes.size());
+            for (size_t i = 0; i < x.wide_.nodes.size(); ++i) {
+                const bvh::WideNode &p = x.wide_.nodes[i], &q = y->wide_.nodes[i];
+                bool same = true;
+                for (int l = 0; l < bvh::kWidth; ++l) {
+                    same &= p.child[l] == q.child[l] && p.count[l] == q.count[l];
+                    for (int k = 0; k < 6; ++k) same &= p.b[k][l] == q.b[k][l];
+                }
+                ASSERT_TRUE(same) << "wide node " << i;
+            }
+            ASSERT_EQ(x.wide_.blocks.size(), y->wide_.blocks.size());
+            for (size_t i = 0; i < x.wide_.blocks.size(); ++i)
+                ASSERT_EQ(std::memcmp(&x.wide_.blocks[i], &y->wide_.blocks[i], sizeof(bvh::Block)), 0) << "block " << i;
+        }
     }
 }
 
