@@ -293,25 +293,8 @@ bool LightSet::sample(size_t i, const Vec3f& p, const Vec3f& n, Rng& rng, LightS
             float solid_pdf = 0;
             const SphericalTriangle st = near_triangle(t, p);
             if (solid_angle_sampled(st)) {
-                const Vec3f w = st.sample(a, b);
-                // The point of the triangle in that direction (Moller-Trumbore, in double):
-                // its barycentrics replace (a, b), clamped into the triangle against rounding.
-                const double e1[3] = {t.e1.x, t.e1.y, t.e1.z}, e2[3] = {t.e2.x, t.e2.y, t.e2.z};
-                const double d[3] = {w.x, w.y, w.z};
-                const double o[3] = {double(p.x) - t.v0.x, double(p.y) - t.v0.y, double(p.z) - t.v0.z};
-                const auto crs = [](const double* x, const double* y, double* r) {
-                    r[0] = x[1] * y[2] - x[2] * y[1], r[1] = x[2] * y[0] - x[0] * y[2], r[2] = x[0] * y[1] - x[1] * y[0];
-                };
-                const auto dt = [](const double* x, const double* y) { return x[0] * y[0] + x[1] * y[1] + x[2] * y[2]; };
-                double pv[3], qv[3];
-                crs(d, e2, pv);
-                const double det = dt(e1, pv);
-                if (!(std::abs(det) > 0)) return false;
-                crs(o, e1, qv);
-                double ba = std::max(0.0, dt(o, pv) / det), bb = std::max(0.0, dt(d, qv) / det);
-                if (!(dt(e2, qv) / det > 0)) return false;
-                if (ba + bb > 1) ba /= ba + bb, bb = 1 - ba;
-                a = float(ba), b = float(bb);
+                // The point of the triangle in that direction: its barycentrics replace (a, b).
+                if (!barycentrics_toward(p, st.sample(a, b), t.v0, t.e1, t.e2, a, b)) return false;
                 solid_pdf = t.area / (l.area * st.solid_angle());
             } else if (a + b > 1.0f) {
                 a = 1.0f - a;

@@ -7,6 +7,9 @@ namespace renderer {
 namespace {
 
 double dot(const double* a, const double* b) { return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]; }
+void cross(const double* a, const double* b, double* out) {
+    out[0] = a[1] * b[2] - a[2] * b[1], out[1] = a[2] * b[0] - a[0] * b[2], out[2] = a[0] * b[1] - a[1] * b[0];
+}
 bool normalize(double* v) {
     const double l = std::sqrt(dot(v, v));
     if (!(l > 0) || !std::isfinite(l)) return false;
@@ -32,7 +35,8 @@ SphericalTriangle::SphericalTriangle(const accel::Vec3f& p, const accel::Vec3f& 
         for (int i = 0; i < 3; ++i) out[k][i] = double((*v[k])[i]) - double(p[i]);
         if (!normalize(out[k])) return;
     }
-    const double bc[3] = {b_[1] * c_[2] - b_[2] * c_[1], b_[2] * c_[0] - b_[0] * c_[2], b_[0] * c_[1] - b_[1] * c_[0]};
+    double bc[3];
+    cross(b_, c_, bc);
     const double triple = std::abs(dot(a_, bc));
     // Van Oosterom & Strackee 1983 for unit vectors: tan(area / 2) = |a.(b x c)| / (1 + a.b + b.c + c.a).
     area_ = 2 * std::atan2(triple, 1 + dot(a_, b_) + dot(b_, c_) + dot(c_, a_));
@@ -66,6 +70,23 @@ accel::Vec3f SphericalTriangle::sample(float u1, float u2) const {
     for (int i = 0; i < 3; ++i) w[i] = z * b_[i] + rz * perp[i];
     normalize(w);
     return {float(w[0]), float(w[1]), float(w[2])};
+}
+
+bool barycentrics_toward(const accel::Vec3f& p, const accel::Vec3f& w, const accel::Vec3f& v0,
+                         const accel::Vec3f& e1, const accel::Vec3f& e2, float& b1, float& b2) {
+    // Moller-Trumbore in double.
+    const double d[3] = {w.x, w.y, w.z}, a[3] = {e1.x, e1.y, e1.z}, c[3] = {e2.x, e2.y, e2.z};
+    const double o[3] = {double(p.x) - v0.x, double(p.y) - v0.y, double(p.z) - v0.z};
+    double pv[3], qv[3];
+    cross(d, c, pv);
+    const double det = dot(a, pv);
+    if (!(std::abs(det) > 0)) return false;
+    cross(o, a, qv);
+    if (!(dot(c, qv) / det > 0)) return false;
+    double x = std::max(0.0, dot(o, pv) / det), y = std::max(0.0, dot(d, qv) / det);
+    if (x + y > 1) x /= x + y, y = 1 - x;
+    b1 = float(x), b2 = float(y);
+    return true;
 }
 
 }  // namespace renderer

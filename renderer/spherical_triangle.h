@@ -36,4 +36,11 @@ private:
     bool valid_ = false;
 };
 
+/// Barycentrics (b1 along e1 = v1 - v0, b2 along e2 = v2 - v0) of the point where the
+/// ray from p in direction w meets the triangle's plane, clamped into the triangle against
+/// rounding (a sampled direction lies inside it up to that); false when the ray is parallel
+/// to the plane or leaves it behind.
+bool barycentrics_toward(const accel::Vec3f& p, const accel::Vec3f& w, const accel::Vec3f& v0,
+                         const accel::Vec3f& e1, const accel::Vec3f& e2, float& b1, float& b2);
+
 }  // namespace renderer

@@ -201,6 +201,17 @@ private:
         }
     }
 
+    /// Runs body over [0, n) into one accumulator (Acc::merge joins partial ones): in
+    /// one piece below kParallelBin references, where a task costs more than it saves.
+    template <class Acc, class Body>
+    static Acc reduce(size_t n, size_t grain, const Body& body) {
+        if (n < kParallelBin) return body(tbb::blocked_range<size_t>(0, n), Acc{});
+        return tbb::parallel_reduce(tbb::blocked_range<size_t>(0, n, grain), Acc{}, body, [](Acc a, const Acc& b) {
+            a.merge(b);
+            return a;
+        });
+    }
+
     Spatial spatial_bins(const std::vector<Ref>& r, const Slabs& slabs, const bool (&usable)[3]) const {
         auto body = [&](const tbb::blocked_range<size_t>& range, Spatial acc) {
             for (size_t k = range.begin(); k < range.end(); ++k) {
@@ -223,12 +234,7 @@ private:
             }
             return acc;
         };
-        if (r.size() < kParallelBin) return body({0, r.size()}, Spatial{});
-        return tbb::parallel_reduce(tbb::blocked_range<size_t>(0, r.size(), 2048), Spatial{}, body,
-                                    [](Spatial a, const Spatial& b) {
-                                        a.merge(b);
-                                        return a;
-                                    });
+        return reduce<Spatial>(r.size(), 2048, body);
     }
 
     Bins object_bins(const std::vector<Ref>& r, const Binner& binner) const {
@@ -243,12 +249,7 @@ private:
             }
             return acc;
         };
-        if (r.size() < kParallelBin) return body({0, r.size()}, Bins{});
-        return tbb::parallel_reduce(tbb::blocked_range<size_t>(0, r.size(), 4096), Bins{}, body,
-                                    [](Bins a, const Bins& b) {
-                                        a.merge(b);
-                                        return a;
-                                    });
+        return reduce<Bins>(r.size(), 4096, body);
     }
 
     /// Chooses and performs the split; false for "make a leaf". Above leaf_size a split
