@@ -36,8 +36,12 @@ bool cpu_has(Isa isa) {
 
 Isa resolve_isa(Isa isa) {
     if (isa != Isa::Auto) return isa;
-    // AVX-512 is not preferred: with 8-wide nodes it runs the same 256-bit code as AVX2
-    // (only the compare lands in a mask register) and measured no faster (RESULTS.md).
+    // AVX-512 where the CPU has it: the nodes stay 8 wide (256-bit vectors), but the
+    // any-hit query pushes its hit children by vpcompressd and picks the nearest by a
+    // masked minimum, one instruction each, and the compares land in mask registers:
+    // shadow rays 4-7 % faster, closest-hit even to 3 % faster on the course meshes,
+    // within noise on the 5M sphere (RESULTS.md, session 5).
+    if (cpu_has(Isa::Avx512)) return Isa::Avx512;
     return cpu_has(Isa::Avx2) ? Isa::Avx2 : Isa::Sse2;
 }
 
