@@ -4,6 +4,8 @@
 #include <fmt/format.h>
 #include <tbb/task_arena.h>
 
+#include "benchmarks/pin.h"
+
 #include <algorithm>
 #include <chrono>
 #include <cstdio>
@@ -54,11 +56,12 @@ double cpu_seconds() {
 /// the CPU time the process obtained per wall second over all repeats: on a shared
 /// machine, 2 threads that only get ~1.2 CPUs cannot scale 1.8x, and this says so.
 double measure(const accel::Accelerator& a, const renderer::RaySet& set, int threads, int repeats,
-               accel::TraceStats& stats, double& cpu_util) {
+               accel::TraceStats& stats, double& cpu_util, bool pin) {
     std::vector<double> rates;
     double wall = 0;
     const double cpu0 = cpu_seconds();
     tbb::task_arena arena(threads);
+    bench::PinArena pinned(arena, pin);
     for (int r = 0; r < repeats; ++r) {
         accel::TraceStats st;
         st.counting = stats.counting;
@@ -179,8 +182,12 @@ int main(int argc, char** argv) {
                                          "(or per backend: custom:sah:quantized)")
         ->check(CLI::IsMember({"auto", "float", "quantized"}));
     app.add_flag("--quick", quick, "Smoke run: 5000 rays, 1 repeat, default scene only unless --scene");
+    bool no_pin = false;
+    app.add_flag("--no-pin", no_pin, "Leave the timed threads unpinned (default: thread i of a timed arena runs on "
+                                     "the i-th CPU this process may use)");
     app.add_flag("--no-course", no_course, "Skip the course's with/without-BVH comparison on cow");
     tools::parse_or_exit(app, argc, argv, "accel_bench");
+    const bool pin = !no_pin;
     if (quick) {
         rays = std::min<size_t>(rays, 5000);
         repeats = 1;
@@ -306,12 +313,13 @@ int main(int argc, char** argv) {
                         // Counts come from one untimed counting pass (it also warms the
                         // caches); the timed traces run the backends' lean, uncounted path.
                         tbb::task_arena arena(c.threads);
+                        bench::PinArena pinned(arena, pin);
                         arena.execute([&] { renderer::trace_set(*accels[c.backend], set, c.stats); });
                     }
                     accel::TraceStats st;
                     st.counting = false;
                     double util = 0;
-                    const double mr = measure(*accels[c.backend], set, c.threads, 1, st, util);
+                    const double mr = measure(*accels[c.backend], set, c.threads, 1, st, util, pin);
                     c.rates.push_back(mr);
                     const double wall = double(set.rays.size()) / (mr * 1e6);
                     c.wall += wall;
