@@ -13,8 +13,8 @@ namespace accel {
 /// collapsed into 8-wide nodes with SoA leaf blocks of four primitives (wide.h), traced
 /// by a kernel compiled per instruction set and picked at run time (kernel.h,
 /// dispatch.h). Statistics per query: ++rays (intersect) or ++shadow_rays (occluded);
-/// when TraceStats::counting, nodes_visited = 1 for the scene box + 1 per wide node
-/// whose children are tested, prim_tests = filled lanes of the leaf blocks tested.
+/// when TraceStats::counting, nodes_visited = 1 per wide node whose children are tested
+/// (the root's always), prim_tests = filled lanes of the leaf blocks tested.
 /// BuildInfo::sah_cost is the binary tree's SAH cost with C_trav = 1 and C_isect = 1
 /// per leaf block of four (tree_facts in build.h).
 std::unique_ptr<Accelerator> make_bvh(std::span<const GeometryView> geometry,

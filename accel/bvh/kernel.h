@@ -63,17 +63,6 @@ struct Planes {
             far[a] = neg ? a : a + 3;
         }
     }
-    /// Scalar test of one box: the scene box, once per ray. NaN slab distances (a zero
-    /// direction with the origin on the plane) are ignored, as by the SIMD min/max.
-    PT_INLINE bool hit(const float* b, float t_min, float t_max) const {
-        float t0 = t_min, t1 = kInfinity;
-        for (int a = 0; a < 3; ++a) {
-            const float tn = (b[near[a]] - org[a]) * inv[a], tf = (b[far[a]] - org[a]) * inv[a];
-            t0 = tn > t0 ? tn : t0;
-            t1 = tf < t1 ? tf : t1;
-        }
-        return t0 <= std::min(t1, t_max) * kFarScale;
-    }
 };
 
 /// Broadcast of one float to every lane of V (kernel files add their wider types).
@@ -284,8 +273,14 @@ PT_INLINE inline void prefetch_child(const typename P::Node* nodes, const Block*
 /// Block::kNone, shrinking t as hits are found.
 ///
 /// Counting (only when Count; the timed path is its own instantiation and counts
-/// nothing): nodes_visited = 1 for the scene box + 1 per wide node whose child boxes
-/// are tested; prim_tests = filled lanes of every leaf block tested.
+/// nothing): nodes_visited = 1 per wide node whose child boxes are tested (the root's
+/// always); prim_tests = filled lanes of every leaf block tested.
+///
+/// No scalar test of the scene box first: the root node's eight boxes turn away a ray
+/// that misses the scene just as well, and the scalar test (three divisions, then a
+/// dependent chain of six slab distances and a branch, before any SIMD work could
+/// start) measured 10-25 % of a shadow or diffuse ray on the course meshes, whose rays
+/// all start inside the scene box (RESULTS.md, session 5).
 template <class P, TriangleTest Test, bool Count, bool HasSpheres>
 uint32_t traverse(const WideBvh& w, const Ray& ray_in, float& t_io, float& u_out, float& v_out,
                   TraceStats& stats) {
@@ -295,7 +290,7 @@ uint32_t traverse(const WideBvh& w, const Ray& ray_in, float& t_io, float& u_out
     // node data (all floats), forcing reloads in the innermost loop.
     const Ray ray = ray_in;
     float t = t_io, u = 0.0f, v = 0.0f;
-    uint64_t boxes = 1, tests = 0;
+    uint64_t boxes = 0, tests = 0;
     uint32_t found = Block::kNone;
     const auto finish = [&]() {
         if constexpr (Count) stats.nodes_visited += boxes, stats.prim_tests += tests;
@@ -303,9 +298,6 @@ uint32_t traverse(const WideBvh& w, const Ray& ray_in, float& t_io, float& u_out
         return found;
     };
     const Planes pl(ray);
-    // The scene box first, in scalar: it turns away every ray that misses the scene
-    // (most camera rays around a lone object) before any SIMD setup.
-    if (!pl.hit(w.root, ray.t_min, t)) return finish();
     const WatertightRay wr = Test == TriangleTest::Watertight ? WatertightRay(ray.dir) : WatertightRay();
     const typename P::Box box(pl, ray.t_min);
     const LeafRay lr(ray, wr, box);
@@ -417,13 +409,12 @@ bool occlude(const WideBvh& w, const Ray& ray_in, TraceStats& stats) {
     if (!nodes) return false;
     const Ray ray = ray_in;
     const float t = ray.t_max;
-    uint64_t boxes = 1, tests = 0;
+    uint64_t boxes = 0, tests = 0;
     const auto finish = [&](bool hit) {
         if constexpr (Count) stats.nodes_visited += boxes, stats.prim_tests += tests;
         return hit;
     };
     const Planes pl(ray);
-    if (!pl.hit(w.root, ray.t_min, t)) return finish(false);
     const WatertightRay wr = Test == TriangleTest::Watertight ? WatertightRay(ray.dir) : WatertightRay();
     const typename P::Box box(pl, ray.t_min);
     const LeafRay lr(ray, wr, box);

@@ -103,7 +103,7 @@ struct WideBvh {
     TraversalVector<WideNode> nodes;
     TraversalVector<QuantNode> qnodes;
     TraversalVector<Block> blocks;    ///< leaf blocks, in the order collapse reaches them
-    float root[6] = {};               ///< scene box, tested once per ray before SIMD work
+    float root[6] = {};               ///< scene box (bounds(); traversal starts at nodes[0])
 };
 
 /// Collapses the binary tree into 8-wide nodes (opening the largest-area interior

@@ -743,7 +743,7 @@ TEST(BvhStats, TestsPerRayFarBelowPrimitiveCount) {
                 v.num_prims, tpr, npr, bvh->info().sah_cost);
     EXPECT_LT(tpr, 0.001 * v.num_prims);
     EXPECT_GT(tpr, 0.0);
-    EXPECT_GE(npr, 1.0);  // the root box is always tested
+    EXPECT_GE(npr, 1.0);  // the root node is always tested
 }
 
 TEST(BvhStats, CountsFollowTheDocumentedRules) {
@@ -752,31 +752,35 @@ TEST(BvhStats, CountsFollowTheDocumentedRules) {
     auto bvh = make_bvh({&v, 1}, options(BvhSplit::Sah, TriangleTest::Fast));
     TraceStats s;
     Hit h;
-    // A ray missing the root box: one box test, no primitive tests.
+    // A ray missing the scene: the root node's test, no primitive tests.
     bvh->intersect(Ray{{-5, -5, 1}, {0, 0, 1}}, h, s);
     EXPECT_EQ(s.rays, 1u);
     EXPECT_EQ(s.nodes_visited, 1u);
     EXPECT_EQ(s.prim_tests, 0u);
-    // A hit: the scene box, then at least the root wide node.
+    s = {};
+    EXPECT_FALSE(bvh->occluded(Ray{{-5, -5, 1}, {0, 0, 1}}, s));
+    EXPECT_EQ(s.nodes_visited, 1u);
+    EXPECT_EQ(s.prim_tests, 0u);
+    // A hit: at least the root wide node, and a leaf block.
     s = {};
     EXPECT_TRUE(bvh->occluded(Ray{{1.5f, 2.5f, 1}, {0, 0, -1}}, s));
     EXPECT_EQ(s.shadow_rays, 1u);
-    EXPECT_GE(s.nodes_visited, 2u);
+    EXPECT_GE(s.nodes_visited, 1u);
     EXPECT_GE(s.prim_tests, 1u);
     // Closest hit tests at least as much as any hit for the same ray.
     TraceStats c;
     EXPECT_TRUE(bvh->intersect(Ray{{1.5f, 2.5f, 1}, {0, 0, -1}}, h, c));
     EXPECT_GE(c.prim_tests, s.prim_tests);
     EXPECT_GE(c.nodes_visited, s.nodes_visited);
-    // A single-leaf tree: the scene box + the root wide node; its one block holds both
-    // triangles, and tests count the two filled lanes.
+    // A single-leaf tree: the root wide node only; its one block holds both triangles,
+    // and tests count the two filled lanes.
     Mesh one = grid(1);
     GeometryView ov = one.view();
     auto tiny = make_bvh({&ov, 1}, options(BvhSplit::Sah, TriangleTest::Fast));
     EXPECT_EQ(tiny->info().nodes, 1u);
     s = {};
     EXPECT_TRUE(tiny->intersect(Ray{{0.25f, 0.5f, 1}, {0, 0, -1}}, h, s));
-    EXPECT_EQ(s.nodes_visited, 2u);
+    EXPECT_EQ(s.nodes_visited, 1u);
     EXPECT_EQ(s.prim_tests, 2u);
 }
 
