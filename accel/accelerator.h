@@ -65,7 +65,9 @@ enum class NodeLayout : uint8_t { Auto, Float, Quantized };
 struct AccelOptions {
     TriangleTest triangle = TriangleTest::Fast;
     BvhSplit split = BvhSplit::Sah;
-    uint32_t leaf_size = 4;          ///< maximum primitives per leaf (custom BVH)
+    /// Maximum primitives per leaf (custom BVH); 0 = the builder's own (default_leaf_size
+    /// in accel/bvh/build.h: 4 for sah and midpoint, 12 for sbvh).
+    uint32_t leaf_size = 0;
     EmbreeQuality embree_quality = EmbreeQuality::High;
     bool embree_robust = false;
     /// Embree counting mode: triangles become a user geometry tested by our own

@@ -34,7 +34,8 @@ bool BvhBase::build(std::span<const GeometryView> geometry, const AccelOptions& 
                     bool quantized) {
     const auto start = std::chrono::steady_clock::now();
     geometry_.assign(geometry.begin(), geometry.end());
-    leaf_size_ = std::clamp<uint32_t>(opt.leaf_size, 1u, Node::kCountMask);
+    leaf_size_ = std::clamp<uint32_t>(opt.leaf_size ? opt.leaf_size : default_leaf_size(opt.split), 1u,
+                                      Node::kCountMask);
     const std::vector<PrimRef> refs = collect_primitives(geometry_, info_.dropped);
     for (const PrimRef& r : refs) has_spheres_ |= geometry_[r.geom].type == GeometryType::Spheres;
     tree_ = opt.split == BvhSplit::Sbvh ? build_sbvh(geometry_, refs, leaf_size_, opt.build_threads)

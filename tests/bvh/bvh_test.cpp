@@ -532,6 +532,31 @@ TEST(BvhSbvh, SliversAreSplitWithinTheBudgetAndCovered) {
     EXPECT_LT(s2.prim_tests, s1.prim_tests);
 }
 
+TEST(BvhSbvh, DefaultLeafCapVisitsFewerNodesOnSlivers) {
+    // leaf_size 0 = the builder's cap (12 for sbvh): bundles of needles no split
+    // separates become leaves instead of chains of nodes every ray through them visits.
+    Mesh m = slivers(2, 1000);
+    GeometryView v = m.view();
+    auto cap4 = make_bvh({&v, 1}, options(BvhSplit::Sbvh, TriangleTest::Fast, 4));
+    auto dflt = make_bvh({&v, 1}, options(BvhSplit::Sbvh, TriangleTest::Fast, 0));
+    auto rep = inspect_bvh(*dflt);
+    ASSERT_TRUE(rep);
+    EXPECT_EQ(rep->leaf_size_limit, bvh::default_leaf_size(BvhSplit::Sbvh));
+    EXPECT_GT(rep->max_leaf_size, 4u);
+    expect_valid(*dflt, bvh::default_leaf_size(BvhSplit::Sbvh), v.num_prims);
+    TraceStats s4, sd;
+    s4.counting = sd.counting = true;
+    for (const Ray& r : make_rays(dflt->bounds(), mesh_targets(m, 300), 23, 0)) {
+        Hit h4, hd;
+        const bool a = cap4->intersect(r, h4, s4), b = dflt->intersect(r, hd, sd);
+        ASSERT_EQ(a, b);
+        if (a) {
+            EXPECT_EQ(h4.t, hd.t);
+        }
+    }
+    EXPECT_LT(sd.nodes_visited, s4.nodes_visited * 3 / 4);
+}
+
 TEST(BvhSbvh, SliversAgreeWithNaive) {
     // Watertight only: on rays through these needles' vertices the fast (Möller–Trumbore)
     // test's t is off by more than the box test's slack, so every split, sah and midpoint
