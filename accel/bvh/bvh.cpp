@@ -21,12 +21,19 @@ BvhBase::~BvhBase() = default;
 const BuildInfo& BvhBase::info() const { return info_; }
 Bounds3f BvhBase::bounds() const { return tree_.nodes.empty() ? Bounds3f{} : tree_.nodes[0].bounds(); }
 
-void BvhBase::finish(uint32_t slot, const Ray& ray, float t, float u, float v, Hit& hit) const {
+void BvhBase::finish(uint32_t slot, BlockLane at, const Ray& ray, float t, float u, float v, Hit& hit) const {
     Hit h;
     h.t = t, h.u = u, h.v = v;
-    h.geom_id = tree_.order[slot].geom;
-    h.prim_id = tree_.order[slot].prim;
-    finish_hit(geometry_, ray, h);
+    const PrimRef ref = tree_.order[slot];
+    h.geom_id = ref.geom;
+    h.prim_id = ref.prim;
+    const Block& b = *at.block;
+    const int l = at.lane;
+    const auto lane = [&](int row) { return Vec3f(b.p[row][0][l], b.p[row][1][l], b.p[row][2][l]); };
+    if (geometry_[ref.geom].type == GeometryType::Triangles)
+        h.ng = edges_ ? cross(lane(1), lane(2)) : triangle_normal(lane(0), lane(1), lane(2));
+    else
+        h.ng = (ray.org + ray.dir * h.t) - lane(0);
     hit = h;
 }
 
@@ -34,6 +41,7 @@ bool BvhBase::build(std::span<const GeometryView> geometry, const AccelOptions& 
                     bool quantized) {
     const auto start = std::chrono::steady_clock::now();
     geometry_.assign(geometry.begin(), geometry.end());
+    edges_ = opt.triangle == TriangleTest::Fast;
     leaf_size_ = std::clamp<uint32_t>(opt.leaf_size ? opt.leaf_size : default_leaf_size(opt.split), 1u,
                                       Node::kCountMask);
     const std::vector<PrimRef> refs = collect_primitives(geometry_, info_.dropped);
@@ -73,6 +81,7 @@ void BvhBase::adopt(BvhBase&& o) {
     tree_ = std::move(o.tree_);
     wide_ = std::move(o.wide_);
     has_spheres_ = o.has_spheres_;
+    edges_ = o.edges_;
     leaf_size_ = o.leaf_size_;
     info_ = std::move(o.info_);
 }

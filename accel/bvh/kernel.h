@@ -270,7 +270,8 @@ PT_INLINE inline void prefetch_child(const typename P::Node* nodes, const Block*
 }
 
 /// Returns the leaf-order slot of the closest primitive hit in [ray.t_min, t], or
-/// Block::kNone, shrinking t as hits are found.
+/// Block::kNone, shrinking t as hits are found; `where` gets the block and lane it was
+/// found in (BvhBase::finish takes the normal from there, not from the scene's arrays).
 ///
 /// Counting (only when Count; the timed path is its own instantiation and counts
 /// nothing): nodes_visited = 1 per wide node whose child boxes are tested (the root's
@@ -283,7 +284,7 @@ PT_INLINE inline void prefetch_child(const typename P::Node* nodes, const Block*
 /// all start inside the scene box (RESULTS.md, session 5).
 template <class P, TriangleTest Test, bool Count, bool HasSpheres>
 uint32_t traverse(const WideBvh& w, const Ray& ray_in, float& t_io, float& u_out, float& v_out,
-                  TraceStats& stats) {
+                  BlockLane& where, TraceStats& stats) {
     const typename P::Node* nodes = node_array<typename P::Node>(w);
     if (!nodes) return Block::kNone;
     // Local copies: through references every store to t could alias the ray and the
@@ -292,9 +293,10 @@ uint32_t traverse(const WideBvh& w, const Ray& ray_in, float& t_io, float& u_out
     float t = t_io, u = 0.0f, v = 0.0f;
     uint64_t boxes = 0, tests = 0;
     uint32_t found = Block::kNone;
+    BlockLane at{};
     const auto finish = [&]() {
         if constexpr (Count) stats.nodes_visited += boxes, stats.prim_tests += tests;
-        if (found != Block::kNone) t_io = t, u_out = u, v_out = v;
+        if (found != Block::kNone) t_io = t, u_out = u, v_out = v, where = at;
         return found;
     };
     const Planes pl(ray);
@@ -321,7 +323,7 @@ uint32_t traverse(const WideBvh& w, const Ray& ray_in, float& t_io, float& u_out
                 if (HasSpheres && (count & WideNode::kSpheres)) {
                     for (int l = 0; l < 4 && b->slot[l] != Block::kNone; ++l) {
                         float ts;
-                        if (sphere_lane(*b, l, ray, t, ts)) t = ts, u = v = 0.0f, found = b->slot[l];
+                        if (sphere_lane(*b, l, ray, t, ts)) t = ts, u = v = 0.0f, found = b->slot[l], at = {b, l};
                     }
                     continue;
                 }
@@ -333,7 +335,7 @@ uint32_t traverse(const WideBvh& w, const Ray& ray_in, float& t_io, float& u_out
                 do {
                     const int l = __builtin_ctz(hit);
                     hit &= hit - 1;
-                    if (tt[l] <= t) t = tt[l], u = uu[l], v = vv[l], found = b->slot[l];
+                    if (tt[l] <= t) t = tt[l], u = uu[l], v = vv[l], found = b->slot[l], at = {b, l};
                 } while (hit);
             }
         } else {
@@ -472,12 +474,14 @@ public:
     bool intersect(const Ray& ray, Hit& hit, TraceStats& stats) const override {
         ++stats.rays;
         float t = ray.t_max, u = 0, v = 0;
-        const uint32_t slot = stats.counting ? (has_spheres_ ? traverse<P, Test, true, true>(wide_, ray, t, u, v, stats)
-                                                             : traverse<P, Test, true, false>(wide_, ray, t, u, v, stats))
-                              : has_spheres_ ? traverse<P, Test, false, true>(wide_, ray, t, u, v, stats)
-                                             : traverse<P, Test, false, false>(wide_, ray, t, u, v, stats);
+        BlockLane at{};
+        const uint32_t slot =
+            stats.counting ? (has_spheres_ ? traverse<P, Test, true, true>(wide_, ray, t, u, v, at, stats)
+                                           : traverse<P, Test, true, false>(wide_, ray, t, u, v, at, stats))
+            : has_spheres_ ? traverse<P, Test, false, true>(wide_, ray, t, u, v, at, stats)
+                           : traverse<P, Test, false, false>(wide_, ray, t, u, v, at, stats);
         if (slot == Block::kNone) return false;
-        finish(slot, ray, t, u, v, hit);
+        finish(slot, at, ray, t, u, v, hit);
         return true;
     }
     bool occluded(const Ray& ray, TraceStats& stats) const override {

@@ -70,6 +70,12 @@ struct alignas(16) Block {
 };
 static_assert(sizeof(Block) == 160);
 
+/// Where a closest hit was found: its block and lane.
+struct BlockLane {
+    const Block* block = nullptr;
+    int lane = 0;
+};
+
 /// Allocator for the arrays traversal reads: incoherent rays touch them at random, and
 /// with 4 KiB pages a few MiB of nodes overflow the TLB. Large blocks are 2 MiB aligned
 /// and advised as transparent huge pages (Linux; a no-op where unsupported).
