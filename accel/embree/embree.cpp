@@ -138,7 +138,8 @@ void user_intersect(const RTCIntersectFunctionNArguments* args) {
     rh->ray.tfar = h.t;
     rh->hit.u = h.u;
     rh->hit.v = h.v;
-    // Embree's Ng is never read: intersect() recomputes ours with finish_hit.
+    // User geometries (spheres, the counting mode) report no Ng: intersect() computes ours
+    // with finish_hit.
     rh->hit.Ng_x = rh->hit.Ng_y = rh->hit.Ng_z = 0.0f;
     rh->hit.geomID = g.geom_id;
     rh->hit.primID = prim;  // already the view's own index: no remapping later
@@ -289,8 +290,17 @@ public:
             const std::vector<uint32_t>& map = prim_map_[h.geom_id];
             if (!counting_ && !map.empty()) h.prim_id = map[h.prim_id];
         }
-        // Embree's Ng has its own orientation convention; ours comes from our buffers.
-        finish_hit(geometry_, ray, h);
+        // Embree's Ng points as ours, cross(v1 - v0, v2 - v0), equal up to rounding
+        // (EmbreeRays.* check the orientation). Taking it from Embree (which computes it from its own leaf data)
+        // rather than recomputing it from the scene's arrays spares a read of the hit
+        // triangle's indices and vertices, which on large scenes misses the caches: the
+        // custom BVH takes its normal from its leaf block for the same reason, and the
+        // comparison gives each backend its cheapest correct path (RESULTS.md, session 5).
+        // The counting mode's user geometry reports no Ng of ours: finish_hit there.
+        if (g.type == GeometryType::Triangles && !counting_)
+            h.ng = Vec3f(rh.hit.Ng_x, rh.hit.Ng_y, rh.hit.Ng_z);
+        else
+            finish_hit(geometry_, ray, h);
         hit = h;
         return true;
     }
