@@ -66,7 +66,7 @@ struct AccelOptions {
     TriangleTest triangle = TriangleTest::Fast;
     BvhSplit split = BvhSplit::Sah;
     /// Maximum primitives per leaf (custom BVH); 0 = the builder's own (default_leaf_size
-    /// in accel/bvh/build.h: 4 for sah and midpoint, 12 for sbvh).
+    /// in accel/bvh/build.h: 8 for sah, 12 for sbvh, 4 for midpoint).
     uint32_t leaf_size = 0;
     EmbreeQuality embree_quality = EmbreeQuality::High;
     bool embree_robust = false;

@@ -66,15 +66,19 @@ struct TreeFacts {
 /// never affords one on the 1000:1 sliver mesh (measured: 0.3 gave the plain SAH tree).
 constexpr double kSbvhAlpha = 1e-5;
 constexpr double kSbvhBudget = 1.0;
-/// The leaf-size cap a builder uses when AccelOptions::leaf_size is 0. The SAH still
-/// decides each leaf below the cap. SBVH gets a larger one because its meshes are made
-/// of references no split separates (bundles of overlapping needles): under a cap of 4
-/// the builder must keep splitting them into nodes that every ray entering the bundle
-/// visits anyway. Measured on the 1000:1 sliver mesh (RESULTS.md, session 5): caps 4 /
-/// 8 / 12 test the same ~1415 triangles per shadow ray but visit 104 / 63 / 49 wide
-/// nodes, and trace 0.65 / 0.78 / 0.85x Embree HIGH; on the course meshes SBVH with 12
-/// is within noise of 4.
-constexpr uint32_t default_leaf_size(BvhSplit split) { return split == BvhSplit::Sbvh ? 12u : 4u; }
+/// The leaf-size cap a builder uses when AccelOptions::leaf_size is 0. Below the cap the
+/// SAH decides (a leaf of 5-8 costs two block tests, which the AVX2 and AVX-512 kernels
+/// make in one 8-lane test); above it a split is forced, even one that separates
+/// nothing. Measured (RESULTS.md, session 5), with the 8-lane test of two blocks:
+/// - binned SAH, cap 8 against 4 on the course meshes and the 5M sphere: camera +4 to
+///   +9 %, shadow 0 to +22 %, diffuse -4 to +11 %;
+/// - SBVH, whose meshes hold bundles of overlapping needles no split separates: on the
+///   1000:1 sliver mesh caps 4 / 8 / 12 test the same ~1415 triangles per shadow ray but
+///   visit 104 / 63 / 49 wide nodes;
+/// - midpoint keeps 4: it makes every node of at most the cap a leaf, without a cost.
+constexpr uint32_t default_leaf_size(BvhSplit split) {
+    return split == BvhSplit::Sbvh ? 12u : split == BvhSplit::Sah ? 8u : 4u;
+}
 
 BinaryTree build_sbvh(std::span<const GeometryView> geometry, const std::vector<PrimRef>& refs,
                       uint32_t leaf_size, int threads);

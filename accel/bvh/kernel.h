@@ -213,12 +213,22 @@ PT_INLINE inline Lanes tri4_wt(const Block& b, const LeafRay& r, float t_max) {
 }
 
 #ifdef __AVX__
-/// Two consecutive blocks of one leaf in one 8-lane Möller–Trumbore (any-hit: the lane
-/// mask only), for the wider kernels: the operations of tri4_mt lane for lane, so every
-/// lane's verdict is the 4-lane test's (and naive's). Leaves of more than one block are
-/// where the SAH could not separate the triangles (SBVH's needle bundles, cap 12): there
-/// the leaf tests dominate, ~1400 triangles per shadow ray on the sliver mesh.
-PT_INLINE inline unsigned tri8_mt_mask(const Block& b0, const Block& b1, const LeafRay& r, float t_max) {
+/// tri4_mt's result for two blocks: lanes 0-3 are the first block's, 4-7 the second's.
+struct Lanes8 {
+    unsigned mask;
+    __m256 t, u, v;
+    unsigned store(float* tt, float* uu, float* vv) const {
+        if (mask) _mm256_store_ps(tt, t), _mm256_store_ps(uu, u), _mm256_store_ps(vv, v);
+        return mask;
+    }
+};
+
+/// Two consecutive blocks of one leaf in one 8-lane Möller–Trumbore, for the wider
+/// kernels: the operations of tri4_mt lane for lane, so every lane's t, u, v and verdict
+/// are the 4-lane test's (and naive's). Leaves of more than one block are where the SAH
+/// found no split worth a node (SBVH's needle bundles; the binned SAH's leaves of 5-8):
+/// there the leaf tests dominate, ~1400 triangles per shadow ray on the sliver mesh.
+PT_INLINE inline Lanes8 tri8_mt(const Block& b0, const Block& b1, const LeafRay& r, float t_max) {
     const auto ld2 = [](const float* lo, const float* hi) {
         return _mm256_insertf128_ps(_mm256_castps128_ps256(_mm_load_ps(lo)), _mm_load_ps(hi), 1);
     };
@@ -253,7 +263,7 @@ PT_INLINE inline unsigned tri8_mt_mask(const Block& b0, const Block& b1, const L
                                          _mm256_cmp_ps(_mm256_add_ps(u, v), one, _CMP_LE_OQ)));
     ok = _mm256_and_ps(ok, _mm256_and_ps(_mm256_cmp_ps(t, wide(r.t_min), _CMP_GE_OQ),
                                          _mm256_cmp_ps(t, _mm256_set1_ps(t_max), _CMP_LE_OQ)));
-    return unsigned(_mm256_movemask_ps(ok));
+    return {unsigned(_mm256_movemask_ps(ok)), t, u, v};
 }
 #endif
 
@@ -372,6 +382,26 @@ uint32_t traverse(const WideBvh& w, const Ray& ray_in, float& t_io, float& u_out
                     }
                     continue;
                 }
+#ifdef __AVX__
+                if constexpr (Test == TriangleTest::Fast) {
+                    if (end - b >= 2) {
+                        // The second block's lanes were tested against the segment before
+                        // the first block's hits shortened it; the check below drops those
+                        // that the shortened segment excludes, as testing in turn would.
+                        if constexpr (Count) tests += unsigned(__builtin_popcount(filled(b[1])));
+                        alignas(32) float tt[8], uu[8], vv[8];
+                        unsigned hit = tri8_mt(b[0], b[1], lr, t).store(tt, uu, vv);
+                        while (hit) {
+                            const int l = __builtin_ctz(hit);
+                            hit &= hit - 1;
+                            const Block* hb = b + (l >> 2);
+                            if (tt[l] <= t) t = tt[l], u = uu[l], v = vv[l], found = hb->slot[l & 3], at = {hb, l & 3};
+                        }
+                        ++b;
+                        continue;
+                    }
+                }
+#endif
                 alignas(16) float tt[4], uu[4], vv[4];
                 unsigned hit = tri4<Test>(*b, lr, t).store(tt, uu, vv);
                 if (!hit) continue;
@@ -488,7 +518,7 @@ bool occlude(const WideBvh& w, const Ray& ray_in, TraceStats& stats) {
                 if constexpr (Test == TriangleTest::Fast) {
                     if (end - b >= 2) {
                         if constexpr (Count) tests += unsigned(__builtin_popcount(filled(b[1])));
-                        if (tri8_mt_mask(b[0], b[1], lr, t)) return finish(true);
+                        if (tri8_mt(b[0], b[1], lr, t).mask) return finish(true);
                         ++b;
                         continue;
                     }
