@@ -133,37 +133,83 @@ struct Lanes {
     }
 };
 
-/// Möller–Trumbore on four triangles with precomputed edges; the same operations, in
-/// the same order, as intersect_triangle_mt.
-PT_INLINE inline Lanes tri4_mt(const Block& b, const LeafRay& r, float t_max) {
-    const __m128 e1x = ld(b.p[1][0]), e1y = ld(b.p[1][1]), e1z = ld(b.p[1][2]);
-    const __m128 e2x = ld(b.p[2][0]), e2y = ld(b.p[2][1]), e2z = ld(b.p[2][2]);
-    const __m128 dx = r.d[0], dy = r.d[1], dz = r.d[2];
-    const __m128 px = _mm_sub_ps(_mm_mul_ps(dy, e2z), _mm_mul_ps(dz, e2y));
-    const __m128 py = _mm_sub_ps(_mm_mul_ps(dz, e2x), _mm_mul_ps(dx, e2z));
-    const __m128 pz = _mm_sub_ps(_mm_mul_ps(dx, e2y), _mm_mul_ps(dy, e2x));
-    const __m128 det = _mm_add_ps(_mm_add_ps(_mm_mul_ps(e1x, px), _mm_mul_ps(e1y, py)), _mm_mul_ps(e1z, pz));
-    const __m128 inv = _mm_div_ps(_mm_set1_ps(1.0f), det);
-    const __m128 sx = _mm_sub_ps(r.o[0], ld(b.p[0][0])), sy = _mm_sub_ps(r.o[1], ld(b.p[0][1])),
-                 sz = _mm_sub_ps(r.o[2], ld(b.p[0][2]));
-    const __m128 u = _mm_mul_ps(
-        _mm_add_ps(_mm_add_ps(_mm_mul_ps(sx, px), _mm_mul_ps(sy, py)), _mm_mul_ps(sz, pz)), inv);
-    const __m128 qx = _mm_sub_ps(_mm_mul_ps(sy, e1z), _mm_mul_ps(sz, e1y));
-    const __m128 qy = _mm_sub_ps(_mm_mul_ps(sz, e1x), _mm_mul_ps(sx, e1z));
-    const __m128 qz = _mm_sub_ps(_mm_mul_ps(sx, e1y), _mm_mul_ps(sy, e1x));
-    const __m128 v = _mm_mul_ps(
-        _mm_add_ps(_mm_add_ps(_mm_mul_ps(dx, qx), _mm_mul_ps(dy, qy)), _mm_mul_ps(dz, qz)), inv);
-    const __m128 t = _mm_mul_ps(
-        _mm_add_ps(_mm_add_ps(_mm_mul_ps(e2x, qx), _mm_mul_ps(e2y, qy)), _mm_mul_ps(e2z, qz)), inv);
-    const __m128 zero = _mm_setzero_ps(), one = _mm_set1_ps(1.0f);
+/// Lane-wise float operations for the Möller–Trumbore template below, on 4 lanes (SSE,
+/// every ISA) and 8 lanes (AVX, the wider kernels). The comparisons keep SSE's
+/// predicates: not-equal is unordered (true on NaN), the others ordered (false on NaN).
+struct Ops4 {
+    using V = __m128;
+    PT_INLINE static V add(V a, V b) { return _mm_add_ps(a, b); }
+    PT_INLINE static V sub(V a, V b) { return _mm_sub_ps(a, b); }
+    PT_INLINE static V mul(V a, V b) { return _mm_mul_ps(a, b); }
+    PT_INLINE static V div(V a, V b) { return _mm_div_ps(a, b); }
+    PT_INLINE static V land(V a, V b) { return _mm_and_ps(a, b); }
+    PT_INLINE static V set1(float x) { return _mm_set1_ps(x); }
+    PT_INLINE static V ne(V a, V b) { return _mm_cmpneq_ps(a, b); }
+    PT_INLINE static V ge(V a, V b) { return _mm_cmpge_ps(a, b); }
+    PT_INLINE static V le(V a, V b) { return _mm_cmple_ps(a, b); }
+    PT_INLINE static unsigned mask(V a) { return unsigned(_mm_movemask_ps(a)); }
+};
+#ifdef __AVX__
+struct Ops8 {
+    using V = __m256;
+    PT_INLINE static V add(V a, V b) { return _mm256_add_ps(a, b); }
+    PT_INLINE static V sub(V a, V b) { return _mm256_sub_ps(a, b); }
+    PT_INLINE static V mul(V a, V b) { return _mm256_mul_ps(a, b); }
+    PT_INLINE static V div(V a, V b) { return _mm256_div_ps(a, b); }
+    PT_INLINE static V land(V a, V b) { return _mm256_and_ps(a, b); }
+    PT_INLINE static V set1(float x) { return _mm256_set1_ps(x); }
+    PT_INLINE static V ne(V a, V b) { return _mm256_cmp_ps(a, b, _CMP_NEQ_UQ); }
+    PT_INLINE static V ge(V a, V b) { return _mm256_cmp_ps(a, b, _CMP_GE_OQ); }
+    PT_INLINE static V le(V a, V b) { return _mm256_cmp_ps(a, b, _CMP_LE_OQ); }
+    PT_INLINE static unsigned mask(V a) { return unsigned(_mm256_movemask_ps(a)); }
+};
+#endif
+
+/// The hit lanes and their t, u, v of a Möller–Trumbore test over O::V's lanes.
+template <class O>
+struct MtLanes {
+    unsigned mask;
+    typename O::V t, u, v;
+};
+
+/// Möller–Trumbore on a vector of triangles with precomputed edges (v0 in p0, e1, e2,
+/// per axis); the same operations, in the same order, as intersect_triangle_mt, so every
+/// lane's t, u, v are naive's bits at any width.
+template <class O>
+PT_INLINE inline MtLanes<O> mt_lanes(const typename O::V (&p0)[3], const typename O::V (&e1)[3],
+                                     const typename O::V (&e2)[3], const typename O::V (&o)[3],
+                                     const typename O::V (&d)[3], typename O::V t_min, float t_max) {
+    using V = typename O::V;
+    const V px = O::sub(O::mul(d[1], e2[2]), O::mul(d[2], e2[1]));
+    const V py = O::sub(O::mul(d[2], e2[0]), O::mul(d[0], e2[2]));
+    const V pz = O::sub(O::mul(d[0], e2[1]), O::mul(d[1], e2[0]));
+    const V det = O::add(O::add(O::mul(e1[0], px), O::mul(e1[1], py)), O::mul(e1[2], pz));
+    const V inv = O::div(O::set1(1.0f), det);
+    const V sx = O::sub(o[0], p0[0]), sy = O::sub(o[1], p0[1]), sz = O::sub(o[2], p0[2]);
+    const V u = O::mul(O::add(O::add(O::mul(sx, px), O::mul(sy, py)), O::mul(sz, pz)), inv);
+    const V qx = O::sub(O::mul(sy, e1[2]), O::mul(sz, e1[1]));
+    const V qy = O::sub(O::mul(sz, e1[0]), O::mul(sx, e1[2]));
+    const V qz = O::sub(O::mul(sx, e1[1]), O::mul(sy, e1[0]));
+    const V v = O::mul(O::add(O::add(O::mul(d[0], qx), O::mul(d[1], qy)), O::mul(d[2], qz)), inv);
+    const V t = O::mul(O::add(O::add(O::mul(e2[0], qx), O::mul(e2[1], qy)), O::mul(e2[2], qz)), inv);
+    const V zero = O::set1(0.0f), one = O::set1(1.0f);
     // Ordered comparisons fail on NaN, as the scalar test's do.
-    __m128 ok = _mm_cmpneq_ps(det, zero);
-    ok = _mm_and_ps(ok, _mm_and_ps(_mm_cmpge_ps(u, zero), _mm_cmple_ps(u, one)));
-    ok = _mm_and_ps(ok, _mm_and_ps(_mm_cmpge_ps(v, zero), _mm_cmple_ps(_mm_add_ps(u, v), one)));
-    ok = _mm_and_ps(ok, _mm_and_ps(_mm_cmpge_ps(t, r.t_min), _mm_cmple_ps(t, _mm_set1_ps(t_max))));
-    // No filled(b) here: an unused lane's edges are zero, so det = 0 already rejects it,
-    // and the slot row (a quarter of the block's lines) is not read unless a lane hits.
-    return {unsigned(_mm_movemask_ps(ok)), t, u, v};
+    V ok = O::ne(det, zero);
+    ok = O::land(ok, O::land(O::ge(u, zero), O::le(u, one)));
+    ok = O::land(ok, O::land(O::ge(v, zero), O::le(O::add(u, v), one)));
+    ok = O::land(ok, O::land(O::ge(t, t_min), O::le(t, O::set1(t_max))));
+    return {O::mask(ok), t, u, v};
+}
+
+/// Möller–Trumbore on the four triangles of one block. No filled(b) in the mask: an
+/// unused lane's edges are zero, so det = 0 already rejects it, and the slot row (a
+/// quarter of the block's lines) is not read unless a lane hits.
+PT_INLINE inline Lanes tri4_mt(const Block& b, const LeafRay& r, float t_max) {
+    const __m128 p0[3] = {ld(b.p[0][0]), ld(b.p[0][1]), ld(b.p[0][2])};
+    const __m128 e1[3] = {ld(b.p[1][0]), ld(b.p[1][1]), ld(b.p[1][2])};
+    const __m128 e2[3] = {ld(b.p[2][0]), ld(b.p[2][1]), ld(b.p[2][2])};
+    const MtLanes<Ops4> h = mt_lanes<Ops4>(p0, e1, e2, r.o, r.d, r.t_min, t_max);
+    return {h.mask, h.t, h.u, h.v};
 }
 
 /// Woop 2013 on four triangles; the same operations as intersect_triangle_wt, including
@@ -233,37 +279,13 @@ PT_INLINE inline Lanes8 tri8_mt(const Block& b0, const Block& b1, const LeafRay&
         return _mm256_insertf128_ps(_mm256_castps128_ps256(_mm_load_ps(lo)), _mm_load_ps(hi), 1);
     };
     const auto wide = [](__m128 x) { return _mm256_insertf128_ps(_mm256_castps128_ps256(x), x, 1); };
-    const __m256 e1x = ld2(b0.p[1][0], b1.p[1][0]), e1y = ld2(b0.p[1][1], b1.p[1][1]), e1z = ld2(b0.p[1][2], b1.p[1][2]);
-    const __m256 e2x = ld2(b0.p[2][0], b1.p[2][0]), e2y = ld2(b0.p[2][1], b1.p[2][1]), e2z = ld2(b0.p[2][2], b1.p[2][2]);
-    const __m256 dx = wide(r.d[0]), dy = wide(r.d[1]), dz = wide(r.d[2]);
-    const __m256 px = _mm256_sub_ps(_mm256_mul_ps(dy, e2z), _mm256_mul_ps(dz, e2y));
-    const __m256 py = _mm256_sub_ps(_mm256_mul_ps(dz, e2x), _mm256_mul_ps(dx, e2z));
-    const __m256 pz = _mm256_sub_ps(_mm256_mul_ps(dx, e2y), _mm256_mul_ps(dy, e2x));
-    const __m256 det =
-        _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(e1x, px), _mm256_mul_ps(e1y, py)), _mm256_mul_ps(e1z, pz));
-    const __m256 inv = _mm256_div_ps(_mm256_set1_ps(1.0f), det);
-    const __m256 sx = _mm256_sub_ps(wide(r.o[0]), ld2(b0.p[0][0], b1.p[0][0]));
-    const __m256 sy = _mm256_sub_ps(wide(r.o[1]), ld2(b0.p[0][1], b1.p[0][1]));
-    const __m256 sz = _mm256_sub_ps(wide(r.o[2]), ld2(b0.p[0][2], b1.p[0][2]));
-    const __m256 u = _mm256_mul_ps(
-        _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(sx, px), _mm256_mul_ps(sy, py)), _mm256_mul_ps(sz, pz)), inv);
-    const __m256 qx = _mm256_sub_ps(_mm256_mul_ps(sy, e1z), _mm256_mul_ps(sz, e1y));
-    const __m256 qy = _mm256_sub_ps(_mm256_mul_ps(sz, e1x), _mm256_mul_ps(sx, e1z));
-    const __m256 qz = _mm256_sub_ps(_mm256_mul_ps(sx, e1y), _mm256_mul_ps(sy, e1x));
-    const __m256 v = _mm256_mul_ps(
-        _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(dx, qx), _mm256_mul_ps(dy, qy)), _mm256_mul_ps(dz, qz)), inv);
-    const __m256 t = _mm256_mul_ps(
-        _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(e2x, qx), _mm256_mul_ps(e2y, qy)), _mm256_mul_ps(e2z, qz)), inv);
-    const __m256 zero = _mm256_setzero_ps(), one = _mm256_set1_ps(1.0f);
-    // The predicates of the SSE compares: NEQ is unordered (true on NaN), the others
-    // ordered (false on NaN).
-    __m256 ok = _mm256_cmp_ps(det, zero, _CMP_NEQ_UQ);
-    ok = _mm256_and_ps(ok, _mm256_and_ps(_mm256_cmp_ps(u, zero, _CMP_GE_OQ), _mm256_cmp_ps(u, one, _CMP_LE_OQ)));
-    ok = _mm256_and_ps(ok, _mm256_and_ps(_mm256_cmp_ps(v, zero, _CMP_GE_OQ),
-                                         _mm256_cmp_ps(_mm256_add_ps(u, v), one, _CMP_LE_OQ)));
-    ok = _mm256_and_ps(ok, _mm256_and_ps(_mm256_cmp_ps(t, wide(r.t_min), _CMP_GE_OQ),
-                                         _mm256_cmp_ps(t, _mm256_set1_ps(t_max), _CMP_LE_OQ)));
-    return {unsigned(_mm256_movemask_ps(ok)), t, u, v};
+    __m256 p0[3], e1[3], e2[3], o[3], d[3];
+    for (int a = 0; a < 3; ++a) {
+        p0[a] = ld2(b0.p[0][a], b1.p[0][a]), e1[a] = ld2(b0.p[1][a], b1.p[1][a]), e2[a] = ld2(b0.p[2][a], b1.p[2][a]);
+        o[a] = wide(r.o[a]), d[a] = wide(r.d[a]);
+    }
+    const MtLanes<Ops8> h = mt_lanes<Ops8>(p0, e1, e2, o, d, wide(r.t_min), t_max);
+    return {h.mask, h.t, h.u, h.v};
 }
 #endif
 
