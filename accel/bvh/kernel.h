@@ -122,17 +122,6 @@ PT_INLINE inline unsigned filled(const Block& b) {
     return unsigned(_mm_movemask_ps(_mm_castsi128_ps(_mm_cmpeq_epi32(s, none)))) ^ 0xFu;
 }
 
-/// The result of one four-lane leaf test: the lanes hit in [t_min, t_max] and their
-/// t, u, v. Inlined, so an occlusion query that reads only the mask computes no more.
-struct Lanes {
-    unsigned mask;
-    __m128 t, u, v;
-    unsigned store(float* tt, float* uu, float* vv) const {
-        if (mask) _mm_storeu_ps(tt, t), _mm_storeu_ps(uu, u), _mm_storeu_ps(vv, v);
-        return mask;
-    }
-};
-
 /// Lane-wise float operations for the Möller–Trumbore template below, on 4 lanes (SSE,
 /// every ISA) and 8 lanes (AVX, the wider kernels). The comparisons keep SSE's
 /// predicates: not-equal is unordered (true on NaN), the others ordered (false on NaN).
@@ -148,6 +137,7 @@ struct Ops4 {
     PT_INLINE static V ge(V a, V b) { return _mm_cmpge_ps(a, b); }
     PT_INLINE static V le(V a, V b) { return _mm_cmple_ps(a, b); }
     PT_INLINE static unsigned mask(V a) { return unsigned(_mm_movemask_ps(a)); }
+    PT_INLINE static void store(float* p, V a) { _mm_storeu_ps(p, a); }
 };
 #ifdef __AVX__
 struct Ops8 {
@@ -162,21 +152,32 @@ struct Ops8 {
     PT_INLINE static V ge(V a, V b) { return _mm256_cmp_ps(a, b, _CMP_GE_OQ); }
     PT_INLINE static V le(V a, V b) { return _mm256_cmp_ps(a, b, _CMP_LE_OQ); }
     PT_INLINE static unsigned mask(V a) { return unsigned(_mm256_movemask_ps(a)); }
+    PT_INLINE static void store(float* p, V a) { _mm256_storeu_ps(p, a); }
 };
 #endif
 
-/// The hit lanes and their t, u, v of a Möller–Trumbore test over O::V's lanes.
+/// The result of one leaf test over O::V's lanes: the lanes hit in [t_min, t_max] and
+/// their t, u, v. Inlined, so an occlusion query that reads only the mask computes no
+/// more. Lanes8 (two blocks): lanes 0-3 are the first block's, 4-7 the second's.
 template <class O>
-struct MtLanes {
+struct LanesOf {
     unsigned mask;
     typename O::V t, u, v;
+    unsigned store(float* tt, float* uu, float* vv) const {
+        if (mask) O::store(tt, t), O::store(uu, u), O::store(vv, v);
+        return mask;
+    }
 };
+using Lanes = LanesOf<Ops4>;
+#ifdef __AVX__
+using Lanes8 = LanesOf<Ops8>;
+#endif
 
 /// Möller–Trumbore on a vector of triangles with precomputed edges (v0 in p0, e1, e2,
 /// per axis); the same operations, in the same order, as intersect_triangle_mt, so every
 /// lane's t, u, v are naive's bits at any width.
 template <class O>
-PT_INLINE inline MtLanes<O> mt_lanes(const typename O::V (&p0)[3], const typename O::V (&e1)[3],
+PT_INLINE inline LanesOf<O> mt_lanes(const typename O::V (&p0)[3], const typename O::V (&e1)[3],
                                      const typename O::V (&e2)[3], const typename O::V (&o)[3],
                                      const typename O::V (&d)[3], typename O::V t_min, float t_max) {
     using V = typename O::V;
@@ -208,8 +209,7 @@ PT_INLINE inline Lanes tri4_mt(const Block& b, const LeafRay& r, float t_max) {
     const __m128 p0[3] = {ld(b.p[0][0]), ld(b.p[0][1]), ld(b.p[0][2])};
     const __m128 e1[3] = {ld(b.p[1][0]), ld(b.p[1][1]), ld(b.p[1][2])};
     const __m128 e2[3] = {ld(b.p[2][0]), ld(b.p[2][1]), ld(b.p[2][2])};
-    const MtLanes<Ops4> h = mt_lanes<Ops4>(p0, e1, e2, r.o, r.d, r.t_min, t_max);
-    return {h.mask, h.t, h.u, h.v};
+    return mt_lanes<Ops4>(p0, e1, e2, r.o, r.d, r.t_min, t_max);
 }
 
 /// Woop 2013 on four triangles; the same operations as intersect_triangle_wt, including
@@ -259,16 +259,6 @@ PT_INLINE inline Lanes tri4_wt(const Block& b, const LeafRay& r, float t_max) {
 }
 
 #ifdef __AVX__
-/// tri4_mt's result for two blocks: lanes 0-3 are the first block's, 4-7 the second's.
-struct Lanes8 {
-    unsigned mask;
-    __m256 t, u, v;
-    unsigned store(float* tt, float* uu, float* vv) const {
-        if (mask) _mm256_store_ps(tt, t), _mm256_store_ps(uu, u), _mm256_store_ps(vv, v);
-        return mask;
-    }
-};
-
 /// Two consecutive blocks of one leaf in one 8-lane Möller–Trumbore, for the wider
 /// kernels: the operations of tri4_mt lane for lane, so every lane's t, u, v and verdict
 /// are the 4-lane test's (and naive's). Leaves of more than one block are where the SAH
@@ -284,8 +274,7 @@ PT_INLINE inline Lanes8 tri8_mt(const Block& b0, const Block& b1, const LeafRay&
         p0[a] = ld2(b0.p[0][a], b1.p[0][a]), e1[a] = ld2(b0.p[1][a], b1.p[1][a]), e2[a] = ld2(b0.p[2][a], b1.p[2][a]);
         o[a] = wide(r.o[a]), d[a] = wide(r.d[a]);
     }
-    const MtLanes<Ops8> h = mt_lanes<Ops8>(p0, e1, e2, o, d, wide(r.t_min), t_max);
-    return {h.mask, h.t, h.u, h.v};
+    return mt_lanes<Ops8>(p0, e1, e2, o, d, wide(r.t_min), t_max);
 }
 #endif
 
