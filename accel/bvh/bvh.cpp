@@ -52,7 +52,7 @@ bool BvhBase::build(std::span<const GeometryView> geometry, const AccelOptions& 
     tbb::task_arena arena(opt.build_threads > 0 ? opt.build_threads : tbb::task_arena::automatic);
     bool compressed = false;
     arena.execute([&] {
-        wide_ = collapse(tree_, geometry_, opt.triangle);
+        wide_ = collapse(tree_, geometry_, opt.triangle, leaf_size_);
         compressed = quantized && quantize(wide_);
     });
 

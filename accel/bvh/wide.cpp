@@ -1,5 +1,7 @@
 // Collapse of the binary tree into the 8-wide layout and packing of leaf blocks
 // (Dammertz et al. 2008; Wald et al. 2008; blocks as Embree's triangle4, Wald et al. 2014).
+// Which binary nodes become wide nodes and which subtrees leaves is decided first, for
+// the whole tree, by the SAH-optimal dynamic programme of Ylitie et al. 2017 (Plan).
 //
 // The collapse runs in parallel and gives the very layout a serial depth-first collapse
 // gives, at any thread count: the top of the wide tree is walked serially down to a
@@ -12,6 +14,9 @@
 #include "accel/bvh/wide.h"
 
 #include <tbb/parallel_for.h>
+#include <tbb/parallel_invoke.h>
+
+#include <array>
 
 
 namespace accel::bvh {
@@ -20,10 +25,116 @@ namespace {
 /// Subtrees of at most this many primitives are collapsed by one task.
 constexpr uint32_t kFrontier = 16384;
 
+/// Which binary subtrees become wide nodes and which become leaves: the SAH-optimal
+/// conversion of a binary BVH into a wide one by dynamic programming (Ylitie, Karras,
+/// Laine 2017, "Efficient Incoherent Ray Traversal on GPUs Through Compressed Wide
+/// BVHs", section 4). For each binary node n and each i of 1..kWidth, cost(n, i) is the
+/// least SAH cost of n's subtree given i lanes of its parent wide node:
+/// - one lane: n is a leaf (if it has at most `max_leaf` primitives of one type) or a
+///   wide node of its own (its area times the node cost, plus its best kWidth-lane
+///   distribution);
+/// - i lanes: the best of i - 1 lanes and every split of the i lanes between n's two
+///   children.
+/// Against the greedy collapse (open the largest child until eight are gathered) this
+/// fills the wide nodes (the greedy one left most bottom nodes with 2-4 children, as
+/// each binary node with two leaf children became one) and merges sibling leaves into
+/// one leaf of up to two blocks where one 8-lane test costs less than a node.
+class Plan {
+public:
+    /// Cost units: one 8-wide node test. A leaf of one block costs one unit and each
+    /// pair of blocks, tested in one 8-lane Möller–Trumbore by the AVX2 and AVX-512
+    /// kernels, kBlockPairCost (the tree does not depend on the ISA that traces it).
+    /// Measured on the course meshes and the 5M sphere (RESULTS.md, session 6): a pair
+    /// cost of 1.25 or 1.5 gives the same speed within noise, 1.0 (pairs as cheap as one
+    /// block) or a block cost of 0.7 or 1.5 up to 10 % less.
+    static constexpr float kNodeCost = 1.0f;
+    static constexpr float kBlockCost = 1.0f;
+    static constexpr float kBlockPairCost = 1.25f;
+
+    Plan(const std::vector<Node>& nodes, const std::vector<PrimRef>& order, std::span<const GeometryView> g,
+         uint32_t max_leaf)
+        : nodes_(nodes), order_(order), g_(g), max_leaf_(max_leaf), d_(nodes.size()) {
+        if (!nodes.empty() && !nodes[0].is_leaf()) solve(0, 0);
+    }
+
+    /// The lane split at interior node n made a wide node: lanes for its left child
+    /// (the right child gets kWidth minus that).
+    int split(uint32_t n) const { return d_[n][0]; }
+    /// Interior node n given one lane: a leaf of all its primitives (else a wide node).
+    bool leaf(uint32_t n) const { return nodes_[n].is_leaf() || d_[n][1] != 0; }
+    /// Interior node n given i >= 2 lanes: lanes for its left child, or 0 when it uses
+    /// only i - 1 of them.
+    int lanes(uint32_t n, int i) const { return d_[n][i]; }
+
+private:
+    struct Costs {
+        float c[kWidth + 1];
+        uint32_t prims;
+        uint32_t types;  ///< bit per GeometryType under the node
+    };
+
+    float leaf_cost(uint32_t prims) const {
+        const uint32_t b = (prims + kLeafBlock - 1) / kLeafBlock;
+        return float(b / 2) * kBlockPairCost + float(b % 2) * kBlockCost;
+    }
+
+    Costs solve(uint32_t n, int depth) {
+        const Node& b = nodes_[n];
+        Costs r;
+        const float area = b.bounds().surface_area();
+        if (b.is_leaf()) {
+            r.prims = b.count();
+            r.types = 1u << unsigned(g_[order_[b.offset].geom].type);
+            for (int i = 1; i <= kWidth; ++i) r.c[i] = area * leaf_cost(r.prims);
+            return r;
+        }
+        Costs l, rt;
+        if (depth < kParallelDepth)
+            tbb::parallel_invoke([&] { l = solve(b.offset, depth + 1); }, [&] { rt = solve(b.offset + 1, depth + 1); });
+        else
+            l = solve(b.offset, depth + 1), rt = solve(b.offset + 1, depth + 1);
+        r.prims = l.prims + rt.prims;
+        r.types = l.types | rt.types;
+        auto& d = d_[n];
+        float dist[kWidth + 1];
+        int8_t at[kWidth + 1];
+        for (int j = 2; j <= kWidth; ++j) {
+            dist[j] = kInfinity, at[j] = 1;
+            for (int k = 1; k < j; ++k) {
+                const float c = l.c[k] + rt.c[j - k];
+                if (c < dist[j]) dist[j] = c, at[j] = int8_t(k);
+            }
+        }
+        d[0] = at[kWidth];
+        const float as_node = area * kNodeCost + dist[kWidth];
+        const bool one_type = (r.types & (r.types - 1)) == 0;
+        const float as_leaf = r.prims <= max_leaf_ && one_type ? area * leaf_cost(r.prims) : kInfinity;
+        d[1] = as_leaf <= as_node;
+        r.c[1] = std::min(as_leaf, as_node);
+        for (int i = 2; i <= kWidth; ++i) {
+            if (dist[i] < r.c[i - 1])
+                r.c[i] = dist[i], d[i] = at[i];
+            else
+                r.c[i] = r.c[i - 1], d[i] = 0;
+        }
+        return r;
+    }
+
+    /// Subtrees above this binary depth are solved as parallel tasks (2^12 at most).
+    static constexpr int kParallelDepth = 12;
+
+    const std::vector<Node>& nodes_;
+    const std::vector<PrimRef>& order_;
+    std::span<const GeometryView> g_;
+    uint32_t max_leaf_;
+    std::vector<std::array<int8_t, kWidth + 1>> d_;
+};
+
 class Collapser {
 public:
-    Collapser(const BinaryTree& t, std::span<const GeometryView> g, TriangleTest test, WideBvh& out)
-        : nodes_(t.nodes), order_(t.order), g_(g), test_(test), out_(out) {}
+    Collapser(const BinaryTree& t, const Plan& plan, std::span<const GeometryView> g, TriangleTest test,
+              WideBvh& out)
+        : nodes_(t.nodes), order_(t.order), plan_(plan), g_(g), test_(test), out_(out) {}
 
     /// Builds the whole wide tree from binary interior node 0.
     void run() {
@@ -53,14 +164,24 @@ public:
     /// A tree that is one leaf still gets a WideNode around it.
     void lone_leaf() {
         const Node& c = nodes_[0];
+        const Kid k{0, true, c.offset, c.count()};
         out_.nodes.resize(1);
-        out_.blocks.resize(nblocks(c));
+        out_.blocks.resize(nblocks(k));
         for (int i = 1; i < kWidth; ++i) set_empty(out_.nodes[0], i);
-        for (int k = 0; k < 6; ++k) out_.nodes[0].b[k][0] = c.b[k];
-        leaf(out_.nodes[0], 0, c, 0);
+        for (int a = 0; a < 6; ++a) out_.nodes[0].b[a][0] = c.b[a];
+        leaf(out_.nodes[0], 0, k, 0);
     }
 
 private:
+    /// One lane of a wide node: binary node `binary`, either a leaf of the primitives in
+    /// slots [offset, offset + count) (a binary leaf, or a subtree the plan made one
+    /// leaf) or an interior node that becomes a wide node of its own.
+    struct Kid {
+        uint32_t binary;
+        bool leaf;
+        uint32_t offset = 0, count = 0;  ///< leaves only
+    };
+
     /// A subtree written by one task: binary interior node `binary` and all below it.
     struct Job {
         uint32_t binary;
@@ -72,45 +193,55 @@ private:
     struct Top {
         uint32_t binary, self = 0;
         int n = 0;
-        uint32_t kids[kWidth];
+        Kid kids[kWidth];
         uint32_t first_block[kWidth];  ///< leaf lanes: placed
         int32_t sub[kWidth];           ///< interior lanes: index into tops_ (>= 0) or ~job
     };
 
-    static uint32_t nblocks(const Node& c) { return (c.count() + kLeafBlock - 1) / kLeafBlock; }
+    static uint32_t nblocks(const Kid& c) { return (c.count + kLeafBlock - 1) / kLeafBlock; }
 
-    /// The children of the wide node made from binary interior node `binary`: open the
-    /// interior child with the largest surface area (the one most rays would enter)
-    /// until kWidth children are gathered.
-    int gather(uint32_t binary, uint32_t (&kids)[kWidth]) const {
-        kids[0] = nodes_[binary].offset;
-        kids[1] = nodes_[binary].offset + 1;
-        int n = 2;
-        while (n < kWidth) {
-            int best = -1;
-            float best_area = -1.0f;
-            for (int i = 0; i < n; ++i) {
-                const Node& c = nodes_[kids[i]];
-                if (!c.is_leaf() && c.bounds().surface_area() > best_area) {
-                    best = i;
-                    best_area = c.bounds().surface_area();
-                }
-            }
-            if (best < 0) break;
-            const uint32_t open = kids[best];
-            kids[best] = nodes_[open].offset;
-            kids[n++] = nodes_[open].offset + 1;
-        }
+    /// The lanes of the wide node made from binary interior node `binary`, as the plan
+    /// shares them out.
+    int gather(uint32_t binary, Kid (&kids)[kWidth]) const {
+        const int left = plan_.split(binary);
+        int n = 0;
+        assign(nodes_[binary].offset, left, kids, n);
+        assign(nodes_[binary].offset + 1, kWidth - left, kids, n);
         return n;
     }
 
-    /// Primitives under binary node `b`: its leaves cover consecutive slots, from its
+    /// Appends the lanes binary node `b` takes when given `lanes` of them.
+    void assign(uint32_t b, int lanes, Kid (&kids)[kWidth], int& n) const {
+        const Node& c = nodes_[b];
+        if (c.is_leaf()) {
+            kids[n++] = {b, true, c.offset, c.count()};
+            return;
+        }
+        while (lanes >= 2 && plan_.lanes(b, lanes) == 0) --lanes;
+        if (lanes == 1) {
+            Kid k{b, plan_.leaf(b)};
+            if (k.leaf) slots_under(b, k.offset, k.count);
+            kids[n++] = k;
+            return;
+        }
+        const int left = plan_.lanes(b, lanes);
+        assign(c.offset, left, kids, n);
+        assign(c.offset + 1, lanes - left, kids, n);
+    }
+
+    /// The slots under binary node `b`: its leaves cover consecutive slots, from its
     /// leftmost leaf's first to its rightmost leaf's last.
-    uint32_t prims_under(uint32_t b) const {
+    void slots_under(uint32_t b, uint32_t& offset, uint32_t& count) const {
         uint32_t l = b, r = b;
         while (!nodes_[l].is_leaf()) l = nodes_[l].offset;
         while (!nodes_[r].is_leaf()) r = nodes_[r].offset + 1;
-        return nodes_[r].offset + nodes_[r].count() - nodes_[l].offset;
+        offset = nodes_[l].offset;
+        count = nodes_[r].offset + nodes_[r].count() - offset;
+    }
+    uint32_t prims_under(uint32_t b) const {
+        uint32_t offset, count;
+        slots_under(b, offset, count);
+        return count;
     }
 
     /// Walks the wide nodes of more than kFrontier primitives, in depth-first order,
@@ -122,12 +253,12 @@ private:
         t.binary = binary;
         t.n = gather(binary, t.kids);
         for (int i = 0; i < t.n; ++i) {
-            if (nodes_[t.kids[i]].is_leaf()) continue;
-            if (prims_under(t.kids[i]) > kFrontier) {
-                t.sub[i] = top(t.kids[i]);
+            if (t.kids[i].leaf) continue;
+            if (prims_under(t.kids[i].binary) > kFrontier) {
+                t.sub[i] = top(t.kids[i].binary);
             } else {
                 t.sub[i] = ~int32_t(jobs_.size());
-                jobs_.push_back({t.kids[i]});
+                jobs_.push_back({t.kids[i].binary});
             }
         }
         tops_[me] = t;
@@ -136,15 +267,14 @@ private:
 
     /// Wide nodes and blocks of the wide subtree rooted at binary interior node `binary`.
     void count(uint32_t binary, uint32_t& wide, uint32_t& blocks) const {
-        uint32_t kids[kWidth];
+        Kid kids[kWidth];
         const int n = gather(binary, kids);
         ++wide;
         for (int i = 0; i < n; ++i) {
-            const Node& c = nodes_[kids[i]];
-            if (c.is_leaf())
-                blocks += nblocks(c);
+            if (kids[i].leaf)
+                blocks += nblocks(kids[i]);
             else
-                count(kids[i], wide, blocks);
+                count(kids[i].binary, wide, blocks);
         }
     }
 
@@ -154,8 +284,8 @@ private:
         Top& t = tops_[ti];
         t.self = next_node++;
         for (int i = 0; i < t.n; ++i) {
-            const Node& c = nodes_[t.kids[i]];
-            if (c.is_leaf()) {
+            const Kid& c = t.kids[i];
+            if (c.leaf) {
                 t.first_block[i] = next_block;
                 next_block += nblocks(c);
             } else if (t.sub[i] >= 0) {
@@ -177,9 +307,9 @@ private:
                 set_empty(w, i);
                 continue;
             }
-            const Node& c = nodes_[t.kids[i]];
-            for (int k = 0; k < 6; ++k) w.b[k][i] = c.b[k];
-            if (c.is_leaf()) {
+            const Kid& c = t.kids[i];
+            for (int k = 0; k < 6; ++k) w.b[k][i] = nodes_[c.binary].b[k];
+            if (c.leaf) {
                 leaf(w, i, c, t.first_block[i]);
             } else {
                 w.count[i] = 0;
@@ -192,7 +322,7 @@ private:
     /// `next_node` and block `next_block` on: the node first, then each lane's subtree
     /// in lane order, each leaf's blocks where the walk reaches it.
     uint32_t emit(uint32_t binary, uint32_t& next_node, uint32_t& next_block) {
-        uint32_t kids[kWidth];
+        Kid kids[kWidth];
         const int n = gather(binary, kids);
         const uint32_t self = next_node++;
         WideNode& w = out_.nodes[self];  // sized once: the reference stays valid
@@ -201,14 +331,14 @@ private:
                 set_empty(w, i);
                 continue;
             }
-            const Node& c = nodes_[kids[i]];
-            for (int k = 0; k < 6; ++k) w.b[k][i] = c.b[k];
-            if (c.is_leaf()) {
+            const Kid& c = kids[i];
+            for (int k = 0; k < 6; ++k) w.b[k][i] = nodes_[c.binary].b[k];
+            if (c.leaf) {
                 leaf(w, i, c, next_block);
                 next_block += nblocks(c);
             } else {
                 w.count[i] = 0;
-                w.child[i] = emit(kids[i], next_node, next_block);
+                w.child[i] = emit(c.binary, next_node, next_block);
             }
         }
         return self;
@@ -223,11 +353,11 @@ private:
     }
 
     /// Links lane `lane` of `w` to the leaf's blocks from `first` on and packs them.
-    void leaf(WideNode& w, int lane, const Node& c, uint32_t first) {
+    void leaf(WideNode& w, int lane, const Kid& c, uint32_t first) {
         const bool spheres = g_[order_[c.offset].geom].type != GeometryType::Triangles;  // one type per leaf
         w.child[lane] = WideNode::kLeaf | first;
         w.count[lane] = nblocks(c) | (spheres ? WideNode::kSpheres : 0u);
-        fill_leaf(first, c.offset, c.count());
+        fill_leaf(first, c.offset, c.count);
     }
 
     void fill_leaf(uint32_t first_block, uint32_t offset, uint32_t count) {
@@ -258,6 +388,7 @@ private:
 
     const decltype(BinaryTree::nodes)& nodes_;
     const decltype(BinaryTree::order)& order_;
+    const Plan& plan_;
     std::span<const GeometryView> g_;
     TriangleTest test_;
     WideBvh& out_;
@@ -267,11 +398,13 @@ private:
 
 }  // namespace
 
-WideBvh collapse(const BinaryTree& tree, std::span<const GeometryView> geometry, TriangleTest test) {
+WideBvh collapse(const BinaryTree& tree, std::span<const GeometryView> geometry, TriangleTest test,
+                 uint32_t max_leaf) {
     WideBvh w;
     if (tree.nodes.empty()) return w;
     for (int k = 0; k < 6; ++k) w.root[k] = tree.nodes[0].b[k];
-    Collapser c(tree, geometry, test, w);
+    const Plan plan(tree.nodes, tree.order, geometry, max_leaf);
+    Collapser c(tree, plan, geometry, test, w);
     if (tree.nodes[0].is_leaf())
         c.lone_leaf();
     else

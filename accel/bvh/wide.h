@@ -112,9 +112,12 @@ struct WideBvh {
     float root[6] = {};               ///< scene box (bounds(); traversal starts at nodes[0])
 };
 
-/// Collapses the binary tree into 8-wide nodes (opening the largest-area interior
-/// child until eight children are gathered) and packs every leaf into blocks.
-WideBvh collapse(const BinaryTree& tree, std::span<const GeometryView> geometry, TriangleTest test);
+/// Collapses the binary tree into 8-wide nodes and packs every leaf into blocks. Which
+/// binary nodes become wide nodes and which subtrees become leaves (of at most
+/// `max_leaf` primitives; a binary leaf stays a leaf whatever its size) is the SAH-optimal
+/// choice of Ylitie et al. 2017 (wide.cpp).
+WideBvh collapse(const BinaryTree& tree, std::span<const GeometryView> geometry, TriangleTest test,
+                 uint32_t max_leaf);
 
 /// Bytes the traversal arrays occupy.
 inline uint64_t wide_bytes(const WideBvh& w) {
