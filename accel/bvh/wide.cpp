@@ -17,6 +17,7 @@
 #include <tbb/parallel_invoke.h>
 
 #include <array>
+#include <cmath>
 
 
 namespace accel::bvh {
@@ -41,16 +42,6 @@ constexpr uint32_t kFrontier = 16384;
 /// one leaf of up to two blocks where one 8-lane test costs less than a node.
 class Plan {
 public:
-    /// Cost units: one 8-wide node test. A leaf of one block costs one unit and each
-    /// pair of blocks, tested in one 8-lane Möller–Trumbore by the AVX2 and AVX-512
-    /// kernels, kBlockPairCost (the tree does not depend on the ISA that traces it).
-    /// Measured on the course meshes and the 5M sphere (RESULTS.md, session 6): a pair
-    /// cost of 1.25 or 1.5 gives the same speed within noise, 1.0 (pairs as cheap as one
-    /// block) or a block cost of 0.7 or 1.5 up to 10 % less.
-    static constexpr float kNodeCost = 1.0f;
-    static constexpr float kBlockCost = 1.0f;
-    static constexpr float kBlockPairCost = 1.25f;
-
     Plan(const std::vector<Node>& nodes, const std::vector<PrimRef>& order, std::span<const GeometryView> g,
          uint32_t max_leaf)
         : nodes_(nodes), order_(order), g_(g), max_leaf_(max_leaf), d_(nodes.size()) {
@@ -73,11 +64,6 @@ private:
         uint32_t types;  ///< bit per GeometryType under the node
     };
 
-    float leaf_cost(uint32_t prims) const {
-        const uint32_t b = (prims + kLeafBlock - 1) / kLeafBlock;
-        return float(b / 2) * kBlockPairCost + float(b % 2) * kBlockCost;
-    }
-
     Costs solve(uint32_t n, int depth) {
         const Node& b = nodes_[n];
         Costs r;
@@ -85,7 +71,7 @@ private:
         if (b.is_leaf()) {
             r.prims = b.count();
             r.types = 1u << unsigned(g_[order_[b.offset].geom].type);
-            for (int i = 1; i <= kWidth; ++i) r.c[i] = area * leaf_cost(r.prims);
+            for (int i = 1; i <= kWidth; ++i) r.c[i] = area * CollapseCost::leaf(r.prims);
             return r;
         }
         Costs l, rt;
@@ -106,9 +92,9 @@ private:
             }
         }
         d[0] = at[kWidth];
-        const float as_node = area * kNodeCost + dist[kWidth];
+        const float as_node = area * CollapseCost::kNode + dist[kWidth];
         const bool one_type = (r.types & (r.types - 1)) == 0;
-        const float as_leaf = r.prims <= max_leaf_ && one_type ? area * leaf_cost(r.prims) : kInfinity;
+        const float as_leaf = r.prims <= max_leaf_ && one_type ? area * CollapseCost::leaf(r.prims) : kInfinity;
         d[1] = as_leaf <= as_node;
         r.c[1] = std::min(as_leaf, as_node);
         for (int i = 2; i <= kWidth; ++i) {
@@ -397,6 +383,43 @@ private:
 };
 
 }  // namespace
+
+double wide_sah_cost(const WideBvh& w) {
+    if (w.nodes.empty()) return 0.0;
+    const auto area = [](const float* lo, const float* hi) {
+        const double dx = hi[0] - lo[0], dy = hi[1] - lo[1], dz = hi[2] - lo[2];
+        return 2.0 * (dx * dy + dy * dz + dz * dx);
+    };
+    const double root = area(w.root, w.root + 3);
+    double cost = 0.0;
+    struct Item {
+        uint32_t node;
+        double area;
+    };
+    std::vector<Item> stack{{0, root}};
+    while (!stack.empty()) {
+        const Item it = stack.back();
+        stack.pop_back();
+        cost += it.area * CollapseCost::kNode;
+        const WideNode& n = w.nodes[it.node];
+        for (int i = 0; i < kWidth; ++i) {
+            if (n.child[i] == WideNode::kEmpty) continue;
+            const float lo[3] = {n.b[0][i], n.b[1][i], n.b[2][i]}, hi[3] = {n.b[3][i], n.b[4][i], n.b[5][i]};
+            const double a = area(lo, hi);
+            if (!(n.child[i] & WideNode::kLeaf)) {
+                stack.push_back({n.child[i], a});
+                continue;
+            }
+            // The blocks' filled lanes are the leaf's primitives.
+            const uint32_t first = n.child[i] & ~WideNode::kLeaf, nb = n.count[i] & ~WideNode::kSpheres;
+            uint32_t prims = 0;
+            for (uint32_t b = first; b < first + nb; ++b)
+                for (uint32_t s : w.blocks[b].slot) prims += s != Block::kNone;
+            cost += a * CollapseCost::leaf(prims);
+        }
+    }
+    return cost / root;
+}
 
 WideBvh collapse(const BinaryTree& tree, std::span<const GeometryView> geometry, TriangleTest test,
                  uint32_t max_leaf) {

@@ -112,6 +112,26 @@ struct WideBvh {
     float root[6] = {};               ///< scene box (bounds(); traversal starts at nodes[0])
 };
 
+/// The cost model of the collapse (wide.cpp, Plan), in units of one 8-wide node test:
+/// a leaf of one block costs kBlockCost and each pair of blocks, which the AVX2 and
+/// AVX-512 kernels test in one 8-lane Möller–Trumbore, kBlockPairCost (the tree does not
+/// depend on the ISA that traces it). Measured on the course meshes and the 5M sphere
+/// (RESULTS.md, session 6): a pair cost of 1.25 or 1.5 gives the same speed within noise;
+/// 1.0, a block cost of 0.7 or 1.5, or a fixed cost per leaf visited, no gain.
+struct CollapseCost {
+    static constexpr float kNode = 1.0f;
+    static constexpr float kBlock = 1.0f;
+    static constexpr float kBlockPair = 1.25f;
+    static float leaf(uint32_t prims) {
+        const uint32_t b = (prims + kLeafBlock - 1) / kLeafBlock;
+        return float(b / 2) * kBlockPair + float(b % 2) * kBlock;
+    }
+};
+
+/// The SAH cost of a float wide tree under CollapseCost, relative to the root's area:
+/// the expected node tests and leaf costs of a ray that hits the root box.
+double wide_sah_cost(const WideBvh& w);
+
 /// Collapses the binary tree into 8-wide nodes and packs every leaf into blocks. Which
 /// binary nodes become wide nodes and which subtrees become leaves (of at most
 /// `max_leaf` primitives; a binary leaf stays a leaf whatever its size) is the SAH-optimal

@@ -560,6 +560,73 @@ TEST(BvhSbvh, DefaultLeafCapVisitsFewerNodesOnSlivers) {
     EXPECT_LT(sd.nodes_visited, s4.nodes_visited * 3 / 4);
 }
 
+/// The SAH cost, under CollapseCost, of the greedy collapse the plan replaced: each
+/// wide node opens its largest-area interior child until kWidth children are gathered,
+/// and every binary leaf stays a leaf. Relative to the root's area, like wide_sah_cost.
+double greedy_collapse_cost(const bvh::BinaryTree& t) {
+    using namespace accel::bvh;
+    const auto area = [&](uint32_t i) { return double(t.nodes[i].bounds().surface_area()); };
+    double cost = 0.0;
+    std::vector<uint32_t> todo{0};
+    while (!todo.empty()) {
+        const uint32_t b = todo.back();
+        todo.pop_back();
+        cost += area(b) * CollapseCost::kNode;
+        std::vector<uint32_t> kids{t.nodes[b].offset, t.nodes[b].offset + 1};
+        while (kids.size() < size_t(kWidth)) {
+            int best = -1;
+            for (int i = 0; i < int(kids.size()); ++i)
+                if (!t.nodes[kids[i]].is_leaf() && (best < 0 || area(kids[i]) > area(kids[best]))) best = i;
+            if (best < 0) break;
+            const uint32_t open = kids[best];
+            kids[best] = t.nodes[open].offset;
+            kids.push_back(t.nodes[open].offset + 1);
+        }
+        for (uint32_t k : kids) {
+            if (t.nodes[k].is_leaf())
+                cost += area(k) * CollapseCost::leaf(t.nodes[k].count());
+            else
+                todo.push_back(k);
+        }
+    }
+    return cost / area(0);
+}
+
+TEST(BvhCollapse, PlanCostsLessThanTheGreedyCollapse) {
+    // The collapse's dynamic programme (Ylitie et al. 2017) is optimal over every way of
+    // cutting the binary tree into wide nodes and leaves of at most the cap, and the
+    // greedy collapse is one of those ways: the wide tree it writes must cost no more,
+    // evaluated from the tree itself (so a plan the writer did not follow fails too).
+    // On these soups the greedy one leaves many nodes of 2-4 children, so the plan is
+    // strictly cheaper; and no leaf exceeds the cap.
+    using namespace accel::bvh;
+    for (const BvhSplit split : {BvhSplit::Sah, BvhSplit::Sbvh, BvhSplit::Midpoint})
+        for (const uint32_t cap : {4u, 8u}) {
+            SCOPED_TRACE(std::string(split == BvhSplit::Sah ? "sah" : split == BvhSplit::Sbvh ? "sbvh" : "midpoint") +
+                         " cap " + std::to_string(cap));
+            Mesh m = soup(3000, 0.05f, 17);
+            GeometryView v = m.view();
+            uint64_t dropped = 0;
+            const std::vector<PrimRef> refs = collect_primitives({&v, 1}, dropped);
+            const BinaryTree tree = split == BvhSplit::Sbvh ? build_sbvh({&v, 1}, refs, cap, 1)
+                                                           : build_binary({&v, 1}, refs, split, cap, 1);
+            const WideBvh w = collapse(tree, {&v, 1}, TriangleTest::Fast, cap);
+            const double plan = wide_sah_cost(w), greedy = greedy_collapse_cost(tree);
+            EXPECT_LT(plan, greedy);
+            // Measured: 8-9 % cheaper with the SAH builders; 1-8 % with midpoint.
+            if (split != BvhSplit::Midpoint) EXPECT_LT(plan, greedy * 0.97) << "plan " << plan << " greedy " << greedy;
+            for (const WideNode& n : w.nodes)
+                for (int i = 0; i < kWidth; ++i)
+                    if (n.child[i] != WideNode::kEmpty && (n.child[i] & WideNode::kLeaf)) {
+                        uint32_t prims = 0;
+                        const uint32_t first = n.child[i] & ~WideNode::kLeaf;
+                        for (uint32_t b = first; b < first + n.count[i]; ++b)
+                            for (uint32_t s : w.blocks[b].slot) prims += s != Block::kNone;
+                        EXPECT_LE(prims, cap);
+                    }
+        }
+}
+
 TEST(BvhAgreement, LeavesOfSeveralBlocks) {
     // A leaf cap of 12 gives leaves of 2-3 blocks, which the AVX2 and AVX-512 kernels'
     // any-hit query tests two at a time (tri8_mt_mask); every kernel must still answer as
