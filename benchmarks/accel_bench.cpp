@@ -12,6 +12,7 @@
 #include <filesystem>
 #include <fstream>
 #include <map>
+#include <tuple>
 #include <sstream>
 #include <thread>
 
@@ -56,12 +57,12 @@ double cpu_seconds() {
 /// the CPU time the process obtained per wall second over all repeats: on a shared
 /// machine, 2 threads that only get ~1.2 CPUs cannot scale 1.8x, and this says so.
 double measure(const accel::Accelerator& a, const renderer::RaySet& set, int threads, int repeats,
-               accel::TraceStats& stats, double& cpu_util, bool pin) {
+               accel::TraceStats& stats, double& cpu_util, bool pin, int first_cpu = 0) {
     std::vector<double> rates;
     double wall = 0;
     const double cpu0 = cpu_seconds();
     tbb::task_arena arena(threads);
-    bench::PinArena pinned(arena, pin);
+    bench::PinArena pinned(arena, pin, first_cpu);
     for (int r = 0; r < repeats; ++r) {
         accel::TraceStats st;
         st.counting = stats.counting;
@@ -216,6 +217,9 @@ int main(int argc, char** argv) {
     const bool have_embree = std::find(available.begin(), available.end(), "embree") != available.end();
 
     std::vector<Row> rows;
+    const int max_threads = *std::max_element(thread_counts.begin(), thread_counts.end());
+    /// (scene, backend, kind) -> Mrays/s of one thread alone on the 2nd, 3rd, ... CPU.
+    std::map<std::tuple<std::string, std::string, std::string>, std::vector<double>> alone;
     // Rewritten after every scene, so a long run that is stopped keeps what it measured.
     auto write_csv = [&] {
         if (!csv_path.empty()) {
@@ -297,6 +301,7 @@ int main(int argc, char** argv) {
                 std::vector<double> rates;
                 double wall = 0, cpu = 0;
                 accel::TraceStats stats;
+                int first_cpu = 0;  ///< > 0: one thread alone on that CPU (see `alone`)
             };
             std::vector<Cell> cells;
             for (int threads : thread_counts)
@@ -304,12 +309,20 @@ int main(int argc, char** argv) {
                     // Naive only for the single-threaded camera rays: enough to show its cost.
                     if (specs[i].backend != "naive" || (threads == 1 && kind == renderer::RayKind::Camera))
                         cells.push_back({threads, i, {}, 0, 0, {}});
+            // With several threads, one thread alone on each further CPU they use, too:
+            // on a shared host one vCPU can run a kernel much slower than another (its
+            // core's other hardware thread busy), so N threads are set against the sum of
+            // the N CPUs alone as well as N times the first.
+            if (pin)
+                for (int cpu = 1; cpu < std::min(max_threads, bench::usable_cpus()); ++cpu)
+                    for (size_t i = 0; i < accels.size(); ++i)
+                        if (specs[i].backend != "naive") cells.push_back({1, i, {}, 0, 0, {}, cpu});
             std::fprintf(stderr, "[accel_bench] %s %s rays: %zu cells x %d rounds\n", name.c_str(),
                          renderer::ray_kind_name(kind), cells.size(), repeats);
             for (int round = 0; round < std::max(1, repeats); ++round)
                 for (Cell& c : cells) {
                     if (specs[c.backend].backend == "naive" && round > 0) continue;  // minutes per trace
-                    if (round == 0) {
+                    if (round == 0 && c.first_cpu == 0) {
                         // Counts come from one untimed counting pass (it also warms the
                         // caches); the timed traces run the backends' lean, uncounted path.
                         tbb::task_arena arena(c.threads);
@@ -319,7 +332,7 @@ int main(int argc, char** argv) {
                     accel::TraceStats st;
                     st.counting = false;
                     double util = 0;
-                    const double mr = measure(*accels[c.backend], set, c.threads, 1, st, util, pin);
+                    const double mr = measure(*accels[c.backend], set, c.threads, 1, st, util, pin, c.first_cpu);
                     c.rates.push_back(mr);
                     const double wall = double(set.rays.size()) / (mr * 1e6);
                     c.wall += wall;
@@ -330,6 +343,12 @@ int main(int argc, char** argv) {
                 size_t first = rows.size();
                 for (Cell& c : cells) {
                     if (c.threads != threads) continue;
+                    if (c.first_cpu > 0) {
+                        std::sort(c.rates.begin(), c.rates.end());
+                        alone[{name, specs[c.backend].label, renderer::ray_kind_name(kind)}].push_back(
+                            c.rates[c.rates.size() / 2]);
+                        continue;
+                    }
                     std::sort(c.rates.begin(), c.rates.end());
                     const double mr = c.rates[c.rates.size() / 2];
                     const size_t i = c.backend;
@@ -368,11 +387,24 @@ int main(int argc, char** argv) {
         double embree_build = 0;
         for (const Row& r : rows)
             if (r.scene == a.scene && r.backend == "embree:high") embree_build = r.build_ms;
-        if (b)
-            std::printf("  %-18s %-22s %-8s %d threads: %.2fx (%.2f CPUs obtained)   build %.2fx embree:high\n",
-                        a.scene.c_str(), a.backend.c_str(), a.kind.c_str(), b->threads,
-                        a.mrays > 0 ? b->mrays / a.mrays : 0.0, b->cpu_util,
-                        embree_build > 0 ? a.build_ms / embree_build : 0.0);
+        if (!b) continue;
+        std::string sum;
+        const auto it = alone.find({a.scene, a.backend, a.kind});
+        if (it != alone.end() && int(it->second.size()) + 1 >= b->threads) {
+            // The CPUs' own speeds: each alone against the first, and what N threads
+            // reach of the sum of the N CPUs alone.
+            double total = a.mrays;
+            std::string each = "1.00";
+            for (int k = 0; k + 1 < b->threads; ++k) {
+                total += it->second[size_t(k)];
+                each += fmt::format("/{:.2f}", a.mrays > 0 ? it->second[size_t(k)] / a.mrays : 0.0);
+            }
+            sum = fmt::format("; CPUs alone {} of the first, {} threads = {:.2f} of their sum", each, b->threads,
+                              total > 0 ? b->mrays / total : 0.0);
+        }
+        std::printf("  %-18s %-22s %-8s %d threads: %.2fx (%.2f CPUs obtained%s)   build %.2fx embree:high\n",
+                    a.scene.c_str(), a.backend.c_str(), a.kind.c_str(), b->threads, a.mrays > 0 ? b->mrays / a.mrays : 0.0,
+                    b->cpu_util, sum.c_str(), embree_build > 0 ? a.build_ms / embree_build : 0.0);
     }
     if (!csv_path.empty()) std::printf("wrote %s\n", csv_path.c_str());
     if (!no_course && !quick && std::filesystem::exists(shared + "cow.dae")) course_comparison(shared + "cow.dae", 800, 600);

@@ -4,6 +4,13 @@
 // a refill of the tree from the other core's caches; our kernel's cells then read 15-40 %
 // slow in some processes and not in others, Embree's 2-5 %. Pinned, both backends run
 // at their fast, repeatable speed, so the ratio compares kernels, not the scheduler.
+//
+// Pinning does not remove a second effect, found in session 6: for minutes at a time one
+// vCPU can run the same code much slower than the other, as when the physical core's
+// other hardware thread is busy with another tenant's work. Measured pinned, in
+// alternating processes: our kernel alone on the second vCPU at 0.65-0.70 of the first
+// (every ISA), Embree at 0.90-0.94; a loop of stores and reloads at 0.5. So accel_bench
+// also times one thread alone on each further CPU and sets N threads against their sum.
 #pragma once
 
 #include <sched.h>
@@ -15,10 +22,20 @@
 
 namespace bench {
 
+/// How many CPUs the process may use (the CPUs PinArena pins to, in order).
+inline int usable_cpus() {
+    cpu_set_t all;
+    CPU_ZERO(&all);
+    return sched_getaffinity(0, sizeof(all), &all) == 0 ? CPU_COUNT(&all) : 1;
+}
+
 class PinArena : public tbb::task_scheduler_observer {
 public:
-    /// `on`: false leaves the threads to the scheduler (--no-pin).
-    PinArena(tbb::task_arena& arena, bool on) : tbb::task_scheduler_observer(arena), on_(on) {
+    /// `on`: false leaves the threads to the scheduler (--no-pin). Thread i runs on the
+    /// (first + i)-th CPU, counting round the process's CPUs: first > 0 times one
+    /// thread on another CPU than the first.
+    PinArena(tbb::task_arena& arena, bool on, int first = 0)
+        : tbb::task_scheduler_observer(arena), on_(on), first_(first) {
         if (!on_) return;
         CPU_ZERO(&all_);
         if (sched_getaffinity(0, sizeof(all_), &all_) != 0) return;
@@ -32,13 +49,14 @@ public:
         const int slot = tbb::this_task_arena::current_thread_index();
         cpu_set_t one;
         CPU_ZERO(&one);
-        CPU_SET(cpus_[size_t(slot < 0 ? 0 : slot) % cpus_.size()], &one);
+        CPU_SET(cpus_[size_t(first_ + (slot < 0 ? 0 : slot)) % cpus_.size()], &one);
         sched_setaffinity(0, sizeof(one), &one);
     }
     void on_scheduler_exit(bool) override { sched_setaffinity(0, sizeof(all_), &all_); }
 
 private:
     bool on_;
+    int first_;
     cpu_set_t all_{};
     std::vector<int> cpus_;
 };
