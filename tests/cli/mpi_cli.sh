@@ -42,6 +42,10 @@ if [ -x "$TRADEOFF" ]; then
 fi
 
 # A rank that cannot load its scene: every rank stops, the message names the rank and why.
+# "Stops" is bounded at 30 s: the full render takes minutes (100 000 spp: ~200 s for one
+# process), so the bound still tells a stopped job from a finished or hung one, while MPI
+# start-up of 3 oversubscribed ranks beside other tests takes its time (12 s once in the
+# fresh-machine check, against 1-2 s on a quiet machine).
 cat >"$TMP/bad_rank.sh" <<EOS
 #!/bin/sh
 scene="$SCENE"
@@ -51,12 +55,13 @@ EOS
 start=$(date +%s)
 timeout 60 "${MPI[@]}" -np 3 sh "$TMP/bad_rank.sh" >/dev/null 2>"$TMP/err"; st=$?
 took=$(( $(date +%s) - start ))
-{ [ $st -ne 0 ] && [ $st -ne 124 ] && [ $took -le 10 ] && grep -q "rank 1 of 3 stopped" "$TMP/err" \
+{ [ $st -ne 0 ] && [ $st -ne 124 ] && [ $took -le 30 ] && grep -q "rank 1 of 3 stopped" "$TMP/err" \
   && grep -q "missing.dae" "$TMP/err" && [ ! -e "$TMP/bad.exr" ]; } \
   && echo "ok   a rank that fails to load stops the job (status $st, ${took} s)" \
   || { fail "failed load: status $st after ${took} s"; tail -8 "$TMP/err"; }
 
-# A rank killed mid-render (SIGKILL: no handler runs): every rank stops within 10 s.
+# A rank killed mid-render (SIGKILL: no handler runs): every rank stops, within 30 s
+# including the 3 s before the kill (the same bound as above, for the same reason).
 cat >"$TMP/kill_rank.sh" <<EOS
 #!/bin/sh
 [ "\$OMPI_COMM_WORLD_RANK" = 2 ] && (sleep 3; kill -9 \$\$) &
@@ -67,7 +72,7 @@ timeout 60 "${MPI[@]}" -np 3 sh "$TMP/kill_rank.sh" >/dev/null 2>"$TMP/err"; st=
 took=$(( $(date +%s) - start ))
 sleep 1
 left=$(pgrep -f "$TMP/killed.exr" | wc -l)
-{ [ $st -ne 0 ] && [ $st -ne 124 ] && [ $took -le 13 ] && [ "$left" -eq 0 ] && [ ! -e "$TMP/killed.exr" ]; } \
+{ [ $st -ne 0 ] && [ $st -ne 124 ] && [ $took -le 30 ] && [ "$left" -eq 0 ] && [ ! -e "$TMP/killed.exr" ]; } \
   && echo "ok   a killed rank stops the job (status $st, ${took} s including 3 s before the kill)" \
   || { fail "killed rank: status $st after ${took} s, $left processes left"; tail -8 "$TMP/err"; }
 
