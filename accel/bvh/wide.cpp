@@ -17,7 +17,6 @@
 #include <tbb/parallel_invoke.h>
 
 #include <array>
-#include <cmath>
 
 
 namespace accel::bvh {
