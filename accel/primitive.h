@@ -75,7 +75,7 @@ inline void finish_hit(std::span<const GeometryView> geometry, const Ray& ray, H
         triangle_vertices(g, hit.prim_id, v0, v1, v2);
         hit.ng = triangle_normal(v0, v1, v2);
     } else {
-        hit.ng = (ray.org + ray.dir * hit.t) - sphere_center(g, hit.prim_id);
+        hit.ng = sphere_normal(ray, hit.t, sphere_center(g, hit.prim_id));
     }
 }
 

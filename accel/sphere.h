@@ -8,6 +8,10 @@
 
 namespace accel {
 
+/// Unnormalised outward normal at the point the ray reaches at t: what every backend
+/// reports for a sphere hit, from the scene's arrays or from a leaf block alike.
+inline Vec3f sphere_normal(const Ray& ray, float t, const Vec3f& center) { return (ray.org + ray.dir * t) - center; }
+
 /// Nearest root of |org + t dir - c|^2 = r^2 with t in [ray.t_min, t_max]; when the ray
 /// starts inside the sphere the near root is behind it and the far root is returned.
 ///

@@ -343,14 +343,12 @@ int main(int argc, char** argv) {
                 size_t first = rows.size();
                 for (Cell& c : cells) {
                     if (c.threads != threads) continue;
-                    if (c.first_cpu > 0) {
-                        std::sort(c.rates.begin(), c.rates.end());
-                        alone[{name, specs[c.backend].label, renderer::ray_kind_name(kind)}].push_back(
-                            c.rates[c.rates.size() / 2]);
-                        continue;
-                    }
                     std::sort(c.rates.begin(), c.rates.end());
                     const double mr = c.rates[c.rates.size() / 2];
+                    if (c.first_cpu > 0) {
+                        alone[{name, specs[c.backend].label, renderer::ray_kind_name(kind)}].push_back(mr);
+                        continue;
+                    }
                     const size_t i = c.backend;
                     const auto& info = accels[i]->info();
                     rows.push_back({name, tris, specs[i].label, renderer::kernel_name(specs[i], info), renderer::ray_kind_name(kind), threads, mr, 0,

@@ -18,15 +18,25 @@
 #include <tbb/task_arena.h>
 #include <tbb/task_scheduler_observer.h>
 
+#include <algorithm>
 #include <vector>
 
 namespace bench {
 
-/// How many CPUs the process may use (the CPUs PinArena pins to, in order).
+/// The CPUs the process may use, in order (the ones PinArena pins to); `all` gets the set.
+inline std::vector<int> process_cpus(cpu_set_t& all) {
+    std::vector<int> cpus;
+    CPU_ZERO(&all);
+    if (sched_getaffinity(0, sizeof(all), &all) != 0) return cpus;
+    for (int c = 0; c < CPU_SETSIZE; ++c)
+        if (CPU_ISSET(c, &all)) cpus.push_back(c);
+    return cpus;
+}
+
+/// How many CPUs the process may use (at least 1).
 inline int usable_cpus() {
     cpu_set_t all;
-    CPU_ZERO(&all);
-    return sched_getaffinity(0, sizeof(all), &all) == 0 ? CPU_COUNT(&all) : 1;
+    return std::max<int>(1, int(process_cpus(all).size()));
 }
 
 class PinArena : public tbb::task_scheduler_observer {
@@ -37,10 +47,7 @@ public:
     PinArena(tbb::task_arena& arena, bool on, int first = 0)
         : tbb::task_scheduler_observer(arena), on_(on), first_(first) {
         if (!on_) return;
-        CPU_ZERO(&all_);
-        if (sched_getaffinity(0, sizeof(all_), &all_) != 0) return;
-        for (int c = 0; c < CPU_SETSIZE; ++c)
-            if (CPU_ISSET(c, &all_)) cpus_.push_back(c);
+        cpus_ = process_cpus(all_);
         if (!cpus_.empty()) observe(true);
     }
     ~PinArena() override { observe(false); }

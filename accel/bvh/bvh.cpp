@@ -33,7 +33,7 @@ void BvhBase::finish(uint32_t slot, BlockLane at, const Ray& ray, float t, float
     if (geometry_[ref.geom].type == GeometryType::Triangles)
         h.ng = edges_ ? cross(lane(1), lane(2)) : triangle_normal(lane(0), lane(1), lane(2));
     else
-        h.ng = (ray.org + ray.dir * h.t) - lane(0);
+        h.ng = sphere_normal(ray, h.t, lane(0));
     hit = h;
 }
 

@@ -385,11 +385,7 @@ private:
 
 double wide_sah_cost(const WideBvh& w) {
     if (w.nodes.empty()) return 0.0;
-    const auto area = [](const float* lo, const float* hi) {
-        const double dx = hi[0] - lo[0], dy = hi[1] - lo[1], dz = hi[2] - lo[2];
-        return 2.0 * (dx * dy + dy * dz + dz * dx);
-    };
-    const double root = area(w.root, w.root + 3);
+    const double root = Bounds3f{{w.root[0], w.root[1], w.root[2]}, {w.root[3], w.root[4], w.root[5]}}.surface_area();
     double cost = 0.0;
     struct Item {
         uint32_t node;
@@ -403,8 +399,7 @@ double wide_sah_cost(const WideBvh& w) {
         const WideNode& n = w.nodes[it.node];
         for (int i = 0; i < kWidth; ++i) {
             if (n.child[i] == WideNode::kEmpty) continue;
-            const float lo[3] = {n.b[0][i], n.b[1][i], n.b[2][i]}, hi[3] = {n.b[3][i], n.b[4][i], n.b[5][i]};
-            const double a = area(lo, hi);
+            const double a = Bounds3f{{n.b[0][i], n.b[1][i], n.b[2][i]}, {n.b[3][i], n.b[4][i], n.b[5][i]}}.surface_area();
             if (!(n.child[i] & WideNode::kLeaf)) {
                 stack.push_back({n.child[i], a});
                 continue;
