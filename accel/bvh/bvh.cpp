@@ -21,10 +21,10 @@ BvhBase::~BvhBase() = default;
 const BuildInfo& BvhBase::info() const { return info_; }
 Bounds3f BvhBase::bounds() const { return tree_.nodes.empty() ? Bounds3f{} : tree_.nodes[0].bounds(); }
 
-void BvhBase::finish(uint32_t slot, BlockLane at, const Ray& ray, float t, float u, float v, Hit& hit) const {
+void BvhBase::finish(BlockLane at, const Ray& ray, float t, float u, float v, Hit& hit) const {
     Hit h;
     h.t = t, h.u = u, h.v = v;
-    const PrimRef ref = tree_.order[slot];
+    const PrimRef ref = lane_primitive(wide_, *at.block, at.lane);
     h.geom_id = ref.geom;
     h.prim_id = ref.prim;
     const Block& b = *at.block;
@@ -232,7 +232,8 @@ std::optional<BvhReport> inspect_bvh(const Accelerator& accel) {
         }
     }
 
-    // The wide traversal tree: every slot reached through exactly one block lane, every
+    // The wide traversal tree: its block lanes name exactly the primitives of the leaf
+    // slots (as many times: sbvh repeats some), every
     // lane box inside the box its parent lane gave, leaf lanes containing their
     // primitives, and each block lane holding the scene's data (fast mode: the edges
     // the scalar test would compute, bit for bit).
@@ -250,7 +251,10 @@ std::optional<BvhReport> inspect_bvh(const Accelerator& accel) {
     if (nodes.empty() != (wide_count == 0)) fail(r.wide_ok, "wide tree missing or extra");
     if (quant && !w.nodes.empty()) fail(r.wide_ok, "both float and quantized nodes kept");
     if (wide_count != 0) {
-        std::vector<uint32_t> wcovered(order.size(), 0);
+        std::vector<uint64_t> lane_keys;
+        lane_keys.reserve(order.size());
+        if (!w.lane_geom.empty() && w.lane_geom.size() != 4 * w.blocks.size())
+            fail(r.wide_ok, "lane geometry table does not match the blocks");
         std::vector<uint32_t> block_uses(w.blocks.size(), 0);
         struct Item {
             uint32_t idx;
@@ -297,14 +301,13 @@ std::optional<BvhReport> inspect_bvh(const Accelerator& accel) {
                     ++block_uses[k];
                     const Block& blk = w.blocks[k];
                     for (int l = 0; l < 4; ++l) {
-                        const uint32_t s = blk.slot[l];
-                        if (s == Block::kNone) continue;
-                        if (s >= order.size()) {
-                            fail(r.wide_ok, "block slot out of range");
+                        if (blk.prim[l] == Block::kNone) continue;
+                        const PrimRef ref = lane_primitive(w, blk, l);
+                        if (ref.geom >= b->geometry_.size() || ref.prim >= b->geometry_[ref.geom].num_prims) {
+                            fail(r.wide_ok, "block lane names no primitive");
                             continue;
                         }
-                        ++wcovered[s];
-                        const PrimRef ref = order[s];
+                        lane_keys.push_back(key(ref));
                         const GeometryView& g = b->geometry_[ref.geom];
                         if (spatial ? !overlaps(lb, primitive_bounds(g, ref.prim))
                                     : !lb.contains(primitive_bounds(g, ref.prim)))
@@ -321,17 +324,19 @@ std::optional<BvhReport> inspect_bvh(const Accelerator& accel) {
                             same = spheres && lane(0) == sphere_center(g, ref.prim) &&
                                    blk.p[1][0][l] == sphere_radius(g, ref.prim);
                         }
-                        if (!same) fail(r.gathered_ok, "slot " + std::to_string(s) + " block data differs");
+                        if (!same)
+                            fail(r.gathered_ok, "primitive " + std::to_string(ref.prim) + " of geometry " +
+                                                    std::to_string(ref.geom) + ": block data differs");
                     }
                 }
             }
         }
         if (visited != wide_count) fail(r.wide_ok, "wide nodes unreachable or shared");
-        for (uint32_t c : wcovered)
-            if (c != 1) {
-                fail(r.wide_ok, "wide tree covers a slot " + std::to_string(c) + " times");
-                break;
-            }
+        std::vector<uint64_t> slot_keys(order.size());
+        for (size_t k = 0; k < order.size(); ++k) slot_keys[k] = key(order[k]);
+        std::sort(lane_keys.begin(), lane_keys.end());
+        std::sort(slot_keys.begin(), slot_keys.end());
+        if (lane_keys != slot_keys) fail(r.wide_ok, "the wide tree's primitives are not the leaves' (one lost or repeated)");
         for (uint32_t c : block_uses)
             if (c != 1) {
                 fail(r.wide_ok, "a leaf block is used " + std::to_string(c) + " times");

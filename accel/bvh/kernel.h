@@ -118,7 +118,7 @@ inline __m128 ld(const float* p) { return _mm_load_ps(p); }
 /// Lanes that hold a primitive.
 PT_INLINE inline unsigned filled(const Block& b) {
     const __m128i none = _mm_set1_epi32(-1);
-    const __m128i s = _mm_load_si128(reinterpret_cast<const __m128i*>(b.slot));
+    const __m128i s = _mm_load_si128(reinterpret_cast<const __m128i*>(b.prim));
     return unsigned(_mm_movemask_ps(_mm_castsi128_ps(_mm_cmpeq_epi32(s, none)))) ^ 0xFu;
 }
 
@@ -203,8 +203,8 @@ PT_INLINE inline LanesOf<O> mt_lanes(const typename O::V (&p0)[3], const typenam
 }
 
 /// Möller–Trumbore on the four triangles of one block. No filled(b) in the mask: an
-/// unused lane's edges are zero, so det = 0 already rejects it, and the slot row (a
-/// quarter of the block's lines) is not read unless a lane hits.
+/// unused lane's edges are zero, so det = 0 already rejects it, and the prim row (a
+/// tenth of the block's bytes) is not read unless a lane hits.
 PT_INLINE inline Lanes tri4_mt(const Block& b, const LeafRay& r, float t_max) {
     const __m128 p0[3] = {ld(b.p[0][0]), ld(b.p[0][1]), ld(b.p[0][2])};
     const __m128 e1[3] = {ld(b.p[1][0]), ld(b.p[1][1]), ld(b.p[1][2])};
@@ -335,9 +335,10 @@ PT_INLINE inline void prefetch_child(const typename P::Node* nodes, const Block*
     }
 }
 
-/// Returns the leaf-order slot of the closest primitive hit in [ray.t_min, t], or
+/// Returns the index of the closest primitive hit in [ray.t_min, t] (Block::prim), or
 /// Block::kNone, shrinking t as hits are found; `where` gets the block and lane it was
-/// found in (BvhBase::finish takes the normal from there, not from the scene's arrays).
+/// found in (BvhBase::finish takes the geometry and the normal from there, not from the
+/// slot map or the scene's arrays).
 ///
 /// Counting (only when Count; the timed path is its own instantiation and counts
 /// nothing): nodes_visited = 1 per wide node whose child boxes are tested (the root's
@@ -387,9 +388,9 @@ uint32_t traverse(const WideBvh& w, const Ray& ray_in, float& t_io, float& u_out
             for (; b != end; ++b) {
                 if constexpr (Count) tests += unsigned(__builtin_popcount(filled(*b)));
                 if (HasSpheres && (count & WideNode::kSpheres)) {
-                    for (int l = 0; l < 4 && b->slot[l] != Block::kNone; ++l) {
+                    for (int l = 0; l < 4 && b->prim[l] != Block::kNone; ++l) {
                         float ts;
-                        if (sphere_lane(*b, l, ray, t, ts)) t = ts, u = v = 0.0f, found = b->slot[l], at = {b, l};
+                        if (sphere_lane(*b, l, ray, t, ts)) t = ts, u = v = 0.0f, found = b->prim[l], at = {b, l};
                     }
                     continue;
                 }
@@ -409,7 +410,7 @@ uint32_t traverse(const WideBvh& w, const Ray& ray_in, float& t_io, float& u_out
                             const int l = __builtin_ctz(hit);
                             hit &= hit - 1;
                             const Block* hb = b + (l >> 2);
-                            if (tt[l] <= t) t = tt[l], u = uu[l], v = vv[l], found = hb->slot[l & 3], at = {hb, l & 3};
+                            if (tt[l] <= t) t = tt[l], u = uu[l], v = vv[l], found = hb->prim[l & 3], at = {hb, l & 3};
                         }
                         ++b;
                         continue;
@@ -424,7 +425,7 @@ uint32_t traverse(const WideBvh& w, const Ray& ray_in, float& t_io, float& u_out
                 do {
                     const int l = __builtin_ctz(hit);
                     hit &= hit - 1;
-                    if (tt[l] <= t) t = tt[l], u = uu[l], v = vv[l], found = b->slot[l], at = {b, l};
+                    if (tt[l] <= t) t = tt[l], u = uu[l], v = vv[l], found = b->prim[l], at = {b, l};
                 } while (hit);
             }
         } else {
@@ -524,7 +525,7 @@ bool occlude(const WideBvh& w, const Ray& ray_in, TraceStats& stats) {
                 if constexpr (Count) tests += unsigned(__builtin_popcount(filled(*b)));
                 if (HasSpheres && (count & WideNode::kSpheres)) {
                     float ts;
-                    for (int l = 0; l < 4 && b->slot[l] != Block::kNone; ++l)
+                    for (int l = 0; l < 4 && b->prim[l] != Block::kNone; ++l)
                         if (sphere_lane(*b, l, ray, t, ts)) return finish(true);
                     continue;
                 }
@@ -574,13 +575,13 @@ public:
         ++stats.rays;
         float t = ray.t_max, u = 0, v = 0;
         BlockLane at{};
-        const uint32_t slot =
+        const uint32_t prim =
             stats.counting ? (has_spheres_ ? traverse<P, Test, true, true>(wide_, ray, t, u, v, at, stats)
                                            : traverse<P, Test, true, false>(wide_, ray, t, u, v, at, stats))
             : has_spheres_ ? traverse<P, Test, false, true>(wide_, ray, t, u, v, at, stats)
                            : traverse<P, Test, false, false>(wide_, ray, t, u, v, at, stats);
-        if (slot == Block::kNone) return false;
-        finish(slot, at, ray, t, u, v, hit);
+        if (prim == Block::kNone) return false;
+        finish(at, ray, t, u, v, hit);
         return true;
     }
     bool occluded(const Ray& ray, TraceStats& stats) const override {

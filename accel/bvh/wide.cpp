@@ -16,6 +16,7 @@
 #include <tbb/parallel_for.h>
 #include <tbb/parallel_invoke.h>
 
+#include <algorithm>
 #include <array>
 
 
@@ -119,7 +120,10 @@ class Collapser {
 public:
     Collapser(const BinaryTree& t, const Plan& plan, std::span<const GeometryView> g, TriangleTest test,
               WideBvh& out)
-        : nodes_(t.nodes), order_(t.order), plan_(plan), g_(g), test_(test), out_(out) {}
+        : nodes_(t.nodes), order_(t.order), plan_(plan), g_(g), test_(test), out_(out) {
+        out_.one_geom = order_.empty() ? 0 : order_[0].geom;
+        several_ = std::any_of(order_.begin(), order_.end(), [&](const PrimRef& r) { return r.geom != out_.one_geom; });
+    }
 
     /// Builds the whole wide tree from binary interior node 0.
     void run() {
@@ -138,6 +142,7 @@ public:
         prepare_fresh(out_.blocks.data(), size_t(next_block) * sizeof(Block));
         out_.nodes.resize(next_node);
         out_.blocks.resize(next_block);
+        if (several_) out_.lane_geom.resize(size_t(next_block) * 4);
         for (const Top& t : tops_) write_top(t);
         tbb::parallel_for(size_t(0), jobs_.size(), [&](size_t i) {
             const Job& j = jobs_[i];
@@ -152,6 +157,7 @@ public:
         const Kid k{0, true, c.offset, c.count()};
         out_.nodes.resize(1);
         out_.blocks.resize(nblocks(k));
+        if (several_) out_.lane_geom.resize(size_t(nblocks(k)) * 4);
         for (int i = 1; i < kWidth; ++i) set_empty(out_.nodes[0], i);
         for (int a = 0; a < 6; ++a) out_.nodes[0].b[a][0] = c.b[a];
         leaf(out_.nodes[0], 0, k, 0);
@@ -349,12 +355,12 @@ private:
         const uint32_t nb = (count + kLeafBlock - 1) / kLeafBlock;
         for (uint32_t b = 0; b < nb; ++b) {
             Block blk{};
-            for (int l = 0; l < 4; ++l) blk.slot[l] = Block::kNone;
+            for (int l = 0; l < 4; ++l) blk.prim[l] = Block::kNone;
             for (uint32_t l = 0; l < 4 && b * 4 + l < count; ++l) {
-                const uint32_t slot = offset + b * 4 + l;
-                const PrimRef ref = order_[slot];
+                const PrimRef ref = order_[offset + b * 4 + l];
                 const GeometryView& g = g_[ref.geom];
-                blk.slot[l] = slot;
+                blk.prim[l] = ref.prim;
+                if (several_) out_.lane_geom[size_t(first_block + b) * 4 + l] = ref.geom;
                 Vec3f v[3];
                 if (g.type == GeometryType::Triangles) {
                     triangle_vertices(g, ref.prim, v[0], v[1], v[2]);
@@ -377,6 +383,7 @@ private:
     std::span<const GeometryView> g_;
     TriangleTest test_;
     WideBvh& out_;
+    bool several_ = false;  ///< primitives of more than one geometry: lanes record theirs
     std::vector<Top> tops_;
     std::vector<Job> jobs_;
 };
@@ -408,7 +415,7 @@ double wide_sah_cost(const WideBvh& w) {
             const uint32_t first = n.child[i] & ~WideNode::kLeaf, nb = n.count[i] & ~WideNode::kSpheres;
             uint32_t prims = 0;
             for (uint32_t b = first; b < first + nb; ++b)
-                for (uint32_t s : w.blocks[b].slot) prims += s != Block::kNone;
+                for (uint32_t p : w.blocks[b].prim) prims += p != Block::kNone;
             cost += a * CollapseCost::leaf(prims);
         }
     }

@@ -60,11 +60,14 @@ static_assert(sizeof(QuantNode) == 16 * kWidth);
 /// e1 = v1 - v0, e2 = v2 - v0 (the same float subtractions the scalar test makes, so the
 /// results are bit-identical to naive's). Watertight mode: v0, v1, v2 as stored in the
 /// scene (Woop's test translates by the ray origin, so edges would lose its guarantee).
-/// Spheres: p[0] = centre, p[1][0] = radius. Unused lanes: slot kNone and all-zero
+/// Spheres: p[0] = centre, p[1][0] = radius. Unused lanes: prim kNone and all-zero
 /// geometry (a degenerate triangle, det = 0, that no lane mask lets through anyway).
+/// The primitive's own index is stored, not its leaf-order slot: a closest hit then
+/// needs no read of the slot map, a random access into 8 bytes per primitive that
+/// missed the caches on big meshes (5M sphere: +22 % camera rays, RESULTS.md session 7).
 struct alignas(16) Block {
     float p[3][3][4];  ///< [vertex or edge][axis][lane]
-    uint32_t slot[4];  ///< leaf-order index (into refs_), kNone for an unused lane
+    uint32_t prim[4];  ///< the primitive's index in its geometry (Hit::prim_id); kNone: unused lane
 
     static constexpr uint32_t kNone = 0xFFFFFFFFu;
 };
@@ -109,8 +112,19 @@ struct WideBvh {
     TraversalVector<WideNode> nodes;
     TraversalVector<QuantNode> qnodes;
     TraversalVector<Block> blocks;    ///< leaf blocks, in the order collapse reaches them
+    /// The geometry of each block lane (block * 4 + lane), only for scenes of several
+    /// geometries; otherwise empty, and every primitive belongs to one_geom.
+    TraversalVector<uint32_t> lane_geom;
+    uint32_t one_geom = 0;
     float root[6] = {};               ///< scene box (bounds(); traversal starts at nodes[0])
 };
+
+/// The primitive in lane `lane` of block `b` (one of w.blocks), as (geometry, index).
+inline PrimRef lane_primitive(const WideBvh& w, const Block& b, int lane) {
+    const uint32_t geom =
+        w.lane_geom.empty() ? w.one_geom : w.lane_geom[size_t(&b - w.blocks.data()) * 4 + size_t(lane)];
+    return {geom, b.prim[lane]};
+}
 
 /// The cost model of the collapse (wide.cpp, Plan), in units of one 8-wide node test:
 /// a leaf of one block costs kBlockCost and each pair of blocks, which the AVX2 and
@@ -142,7 +156,7 @@ WideBvh collapse(const BinaryTree& tree, std::span<const GeometryView> geometry,
 /// Bytes the traversal arrays occupy.
 inline uint64_t wide_bytes(const WideBvh& w) {
     return w.nodes.capacity() * sizeof(WideNode) + w.qnodes.capacity() * sizeof(QuantNode) +
-           w.blocks.capacity() * sizeof(Block);
+           w.blocks.capacity() * sizeof(Block) + w.lane_geom.capacity() * sizeof(uint32_t);
 }
 
 /// Builds w.qnodes from w.nodes (quantize.cpp). Returns false, leaving w unchanged, if

@@ -623,7 +623,7 @@ TEST(BvhCollapse, PlanCostsLessThanTheGreedyCollapse) {
                         uint32_t prims = 0;
                         const uint32_t first = n.child[i] & ~WideNode::kLeaf;
                         for (uint32_t b = first; b < first + n.count[i]; ++b)
-                            for (uint32_t s : w.blocks[b].slot) prims += s != Block::kNone;
+                            for (uint32_t p : w.blocks[b].prim) prims += p != Block::kNone;
                         EXPECT_LE(prims, cap);
                     }
         }
