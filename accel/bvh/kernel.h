@@ -321,13 +321,15 @@ inline const Node* node_array(const WideBvh& w) {
 }
 
 /// Starts the fetch of a subtree the traversal pushed, so that its cache misses overlap
-/// the descent into the nearer child instead of following it (only for policies with
-/// kPrefetch: the compressed layout, used for trees far beyond the caches; on trees that
-/// fit, prefetching measured no gain, RESULTS.md). Interior children: the node's lines;
-/// leaves: the first block's.
-template <class P>
+/// the descent into the nearer child instead of following it. Policies choose: kPrefetch
+/// for closest-hit traversal, kPrefetchShadow for occlusion. The compressed layout (trees
+/// far beyond the caches) prefetches in both; the float layout only for closest hits,
+/// where it measured +1-2 % on diffuse rays of the course meshes, whose trees (2-3 MB)
+/// overflow the 1 MB L2; for shadow rays, which stop at the first hit, it cost 5-11 %
+/// (RESULTS.md, session 7). Interior children: the node's lines; leaves: the first block's.
+template <bool kOn, class P>
 PT_INLINE inline void prefetch_child(const typename P::Node* nodes, const Block* blocks, uint32_t ref) {
-    if constexpr (P::kPrefetch) {
+    if constexpr (kOn) {
         const char* p = ref & WideNode::kLeaf ? reinterpret_cast<const char*>(blocks + (ref & ~WideNode::kLeaf))
                                               : reinterpret_cast<const char*>(nodes + ref);
         constexpr int kLines = int(std::max(sizeof(typename P::Node), sizeof(Block)) + 63) / 64;
@@ -447,7 +449,7 @@ uint32_t traverse(const WideBvh& w, const Ray& ray_in, float& t_io, float& u_out
                     const bool swap = dist[j] < dist[i];
                     const int nearc = swap ? j : i, farc = swap ? i : j;
                     stack[sp++] = {n.child[farc], n.count[farc], dist[farc]};
-                    prefetch_child<P>(nodes, blocks, n.child[farc]);
+                    prefetch_child<P::kPrefetch, P>(nodes, blocks, n.child[farc]);
                     ref = n.child[nearc];
                     count = n.count[nearc];
                     continue;
@@ -458,7 +460,7 @@ uint32_t traverse(const WideBvh& w, const Ray& ray_in, float& t_io, float& u_out
                 mask |= 1u << j;
                 for (;;) {
                     const Entry e{n.child[i], n.count[i], dist[i]};
-                    prefetch_child<P>(nodes, blocks, e.ref);
+                    prefetch_child<P::kPrefetch, P>(nodes, blocks, e.ref);
                     uint32_t k = sp++;
                     while (k > base && stack[k - 1].t < e.t) {
                         stack[k] = stack[k - 1];
@@ -552,8 +554,9 @@ bool occlude(const WideBvh& w, const Ray& ray_in, TraceStats& stats) {
                 count = n.count[i];
                 mask &= ~(1u << i);
                 if (mask) {
-                    if constexpr (P::kPrefetch)
-                        for (unsigned m = mask; m; m &= m - 1) prefetch_child<P>(nodes, blocks, n.child[__builtin_ctz(m)]);
+                    if constexpr (P::kPrefetchShadow)
+                        for (unsigned m = mask; m; m &= m - 1)
+                            prefetch_child<true, P>(nodes, blocks, n.child[__builtin_ctz(m)]);
                     sp += P::push(n, mask, stack_ref + sp, stack_count + sp);
                 }
                 continue;

@@ -29,6 +29,7 @@ PT_INLINE inline unsigned test4(const __m128 n[3], const __m128 f[3], const BoxC
 struct Sse2 {
     using Node = WideNode;
     static constexpr bool kPrefetch = false;
+    static constexpr bool kPrefetchShadow = false;
     using Box = BoxConstants<__m128>;
     /// The eight child boxes as two 4-lane halves.
     PT_INLINE static unsigned test(const WideNode& n, const Box& r, float t, float* dist) {
@@ -54,6 +55,7 @@ struct Sse2 {
 struct Sse2Q : Sse2 {
     using Node = QuantNode;
     static constexpr bool kPrefetch = true;
+    static constexpr bool kPrefetchShadow = true;
     PT_INLINE static unsigned test(const QuantNode& n, const Box& r, float t, float* dist) {
         __m128 s[3], org[3];
         for (int a = 0; a < 3; ++a) {

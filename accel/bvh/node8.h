@@ -22,7 +22,8 @@ inline constexpr CompressTable kCompress{};
 
 struct Node8 {
     using Node = WideNode;
-    static constexpr bool kPrefetch = false;
+    static constexpr bool kPrefetch = true;
+    static constexpr bool kPrefetchShadow = false;
     using Box = BoxConstants<__m256>;
     /// The subtract-then-multiply form (not an FMA of precomputed org*inv): its two
     /// roundings are what Ize's far-distance scale is proven for. NaN operands go first
@@ -87,6 +88,7 @@ struct Node8 {
 struct QNode8 : Node8 {
     using Node = QuantNode;
     static constexpr bool kPrefetch = true;
+    static constexpr bool kPrefetchShadow = true;
     PT_INLINE static unsigned test(const QuantNode& n, const Box& r, float t, float* dist) {
         // The grid steps: each biased exponent byte shifted into a float's exponent
         // field (lane 3 holds `valid` and is not used).
