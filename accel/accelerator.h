@@ -76,6 +76,11 @@ struct AccelOptions {
     int build_threads = 0;           ///< 0 = all cores
     Isa isa = Isa::Auto;             ///< custom BVH kernel (see accel/bvh/bvh.h)
     NodeLayout nodes = NodeLayout::Auto;  ///< custom BVH node layout
+    /// Custom BVH: keep the binary tree the wide one was collapsed from, and its slot
+    /// map, after the build, for inspect_bvh. Traversal never reads them; freed by
+    /// default, they would hold 32 bytes per binary node and 8 per leaf slot (about a
+    /// third of the whole on the 5M sphere).
+    bool keep_binary_tree = false;
 };
 
 /// Facts about a built accelerator, for the summary and the benchmarks.

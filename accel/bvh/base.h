@@ -41,7 +41,7 @@ public:
     void finish(BlockLane at, const Ray& ray, float t, float u, float v, Hit& hit) const;
 
     std::vector<GeometryView> geometry_;
-    BinaryTree tree_;  ///< the build output; tree_.order maps slots to primitives
+    BinaryTree tree_;  ///< the build output, kept only with AccelOptions::keep_binary_tree
     WideBvh wide_;     ///< what traversal reads
     bool has_spheres_ = false;
     bool edges_ = false;  ///< triangle blocks hold v0, e1, e2 (fast mode), not v0, v1, v2

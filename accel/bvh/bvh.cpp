@@ -19,7 +19,11 @@ namespace bvh {
 BvhBase::BvhBase() = default;
 BvhBase::~BvhBase() = default;
 const BuildInfo& BvhBase::info() const { return info_; }
-Bounds3f BvhBase::bounds() const { return tree_.nodes.empty() ? Bounds3f{} : tree_.nodes[0].bounds(); }
+Bounds3f BvhBase::bounds() const {
+    if (wide_.nodes.empty() && wide_.qnodes.empty()) return Bounds3f{};
+    const float* r = wide_.root;
+    return {{r[0], r[1], r[2]}, {r[3], r[4], r[5]}};
+}
 
 void BvhBase::finish(BlockLane at, const Ray& ray, float t, float u, float v, Hit& hit) const {
     Hit h;
@@ -66,8 +70,9 @@ bool BvhBase::build(std::span<const GeometryView> geometry, const AccelOptions& 
     info_.leaves = f.leaves;
     info_.depth = f.depth;
     info_.sah_cost = f.sah_cost;
-    // What the accelerator keeps: the binary tree (for bounds and inspection), the slot
-    // map and the traversal arrays.
+    // What the accelerator keeps: the traversal arrays, and the binary tree with its slot
+    // map only when asked to (inspection).
+    if (!opt.keep_binary_tree) tree_ = BinaryTree{};
     info_.bytes = tree_.nodes.capacity() * sizeof(Node) + tree_.order.capacity() * sizeof(PrimRef) +
                   wide_bytes(wide_) + geometry_.capacity() * sizeof(GeometryView);
     info_.counts_nodes = true;
@@ -124,7 +129,7 @@ std::unique_ptr<Accelerator> make_bvh(std::span<const GeometryView> geometry, co
 std::optional<BvhReport> inspect_bvh(const Accelerator& accel) {
     using namespace bvh;
     const auto* b = dynamic_cast<const BvhBase*>(&accel);
-    if (!b) return std::nullopt;
+    if (!b || (b->tree_.nodes.empty() && b->info_.primitives > 0)) return std::nullopt;
     BvhReport r;
     auto fail = [&](bool& flag, std::string msg) {
         flag = false;

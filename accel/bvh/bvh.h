@@ -80,7 +80,8 @@ struct BvhReport {
     }
 };
 
-/// Inspects an accelerator made by make_bvh; nullopt for any other backend. Slow
-/// (walks the whole tree and re-reads the geometry); meant for tests and tools.
+/// Inspects an accelerator made by make_bvh with AccelOptions::keep_binary_tree; nullopt
+/// for any other backend, or one built without it. Slow (walks the whole tree and
+/// re-reads the geometry); meant for tests and tools.
 std::optional<BvhReport> inspect_bvh(const Accelerator& accel);
 }  // namespace accel

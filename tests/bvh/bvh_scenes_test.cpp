@@ -61,6 +61,7 @@ AccelOptions options(BvhSplit split, TriangleTest test) {
     AccelOptions o;
     o.split = split;
     o.triangle = test;
+    o.keep_binary_tree = true;  // for inspect_bvh
     return o;
 }
 

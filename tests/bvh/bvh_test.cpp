@@ -137,6 +137,7 @@ AccelOptions options(BvhSplit split, TriangleTest test, uint32_t leaf_size = 4) 
     o.split = split;
     o.triangle = test;
     o.leaf_size = leaf_size;
+    o.keep_binary_tree = true;  // for inspect_bvh; BvhMemory.BinaryTreeFreedUnlessKept tests the default
     return o;
 }
 
@@ -818,6 +819,7 @@ TEST(BvhAgreement, InspectRejectsOtherBackends) {
     EXPECT_FALSE(inspect_bvh(*naive).has_value());
 }
 
+
 // ---------------------------------------------------------------------------------
 
 std::vector<Ray> camera_like_rays(const Bounds3f& bb, int n, uint32_t seed) {
@@ -1100,6 +1102,50 @@ TEST(BvhStats, TwoThreadsSumToSingleThreadCounts) {
         EXPECT_EQ(sum.prim_tests, single.prim_tests);
         EXPECT_EQ(single.total_rays(), rays.size());
         EXPECT_GT(single.prim_tests, 0u);
+    }
+}
+
+// By default the binary tree and its slot map are freed after the collapse: the same
+// hits (geometry and primitive ids from the blocks), the same bounds, less memory, and
+// no inspection. Scenes of one and of several geometries (the latter keep a geometry
+// id per block lane).
+TEST(BvhMemory, BinaryTreeFreedUnlessKept) {
+    Mesh a = uv_sphere(16, 24, {-0.5f, 0, 0}, 0.6f);
+    Mesh b = soup(500, 0.1f, 13);
+    Spheres s = random_spheres(200, 14);
+    const GeometryView several[] = {a.view(), b.view(), s.view()};
+    for (std::span<const GeometryView> geom : {std::span<const GeometryView>(several, 1),
+                                                std::span<const GeometryView>(several, 3)}) {
+        SCOPED_TRACE(std::to_string(geom.size()) + " geometries");
+        AccelOptions kept = options(BvhSplit::Sah, TriangleTest::Fast, 0);
+        AccelOptions freed = kept;
+        freed.keep_binary_tree = false;
+        auto k = make_bvh(geom, kept);
+        auto f = make_bvh(geom, freed);
+        const auto rep = inspect_bvh(*k);
+        ASSERT_TRUE(rep.has_value());
+        EXPECT_FALSE(inspect_bvh(*f).has_value());
+        EXPECT_EQ(f->bounds().lo, k->bounds().lo);
+        EXPECT_EQ(f->bounds().hi, k->bounds().hi);
+        EXPECT_EQ(f->info().nodes, k->info().nodes);
+        EXPECT_EQ(k->info().bytes - f->info().bytes,
+                  rep->references * sizeof(PrimRef) + k->info().nodes * sizeof(bvh::Node));
+        auto naive = make_naive(geom, kept);
+        uint64_t hits = 0;
+        TraceStats st;
+        for (const Ray& r : camera_like_rays(k->bounds(), 2000, 21)) {
+            Hit hk, hf, hn;
+            const bool bk = k->intersect(r, hk, st), bf = f->intersect(r, hf, st), bn = naive->intersect(r, hn, st);
+            ASSERT_EQ(bk, bf);
+            ASSERT_EQ(bk, bn);
+            if (!bk) continue;
+            ++hits;
+            EXPECT_EQ(hf.t, hk.t);
+            EXPECT_EQ(hf.geom_id, hn.geom_id);
+            EXPECT_EQ(hf.prim_id, hn.prim_id);
+            EXPECT_EQ(hf.ng, hk.ng);
+        }
+        EXPECT_GT(hits, 500u);
     }
 }
 
