@@ -31,13 +31,14 @@ public:
     /// quantized one could not compress).
     void adopt(BvhBase&& other);
     /// Fills hit for the primitive found at (t, u, v) in lane `at.lane` of block
-    /// `at.block`. Its ids come from the block (WideBvh::lane_geom only for scenes of
-    /// several geometries), not from the slot map. The normal comes from the block (fast mode: cross(e1, e2) of the stored
-    /// edges, which are the float subtractions triangle_normal makes; watertight: the stored
-    /// vertices; spheres: the stored centre), bit for bit what finish_hit computes from the
-    /// scene's arrays, without their cache misses: on the 5M sphere those arrays are
-    /// ~90 MB, and reading a hit triangle's indices and vertices there cost ~1.5 L2 misses
-    /// per camera ray (callgrind; RESULTS.md, session 5).
+    /// `at.block`. Its ids come from the block (and WideBvh::lane_geom for scenes of
+    /// several geometries), not from the slot map. The normal comes from the block too
+    /// (fast mode: cross(e1, e2) of the stored edges, which are the float subtractions
+    /// triangle_normal makes; watertight: the stored vertices; spheres: the stored
+    /// centre), bit for bit what finish_hit computes from the scene's arrays, without
+    /// their cache misses: on the 5M sphere those arrays are ~90 MB, and reading a hit
+    /// triangle's indices and vertices there cost ~1.5 L2 misses per camera ray
+    /// (callgrind; RESULTS.md, session 5).
     void finish(BlockLane at, const Ray& ray, float t, float u, float v, Hit& hit) const;
 
     std::vector<GeometryView> geometry_;
