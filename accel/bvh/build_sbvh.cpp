@@ -15,7 +15,10 @@
 #include <tbb/task_arena.h>
 
 #include <algorithm>
+#include <bit>
 #include <cmath>
+#include <cstdint>
+#include <limits>
 #include <memory>
 #include <utility>
 
@@ -45,13 +48,23 @@ struct SNode {
     std::unique_ptr<SNode> kid[2];
 };
 
+/// The float one step below f (f not NaN; -inf stays). Inline bit arithmetic: libm's
+/// nextafterf, a call per clipped bound, was 8 % of an SBVH build's instructions.
+inline float step_down(float f) {
+    if (f == -kInfinity) return f;
+    if (f == 0.0f) return -std::numeric_limits<float>::denorm_min();
+    const uint32_t b = std::bit_cast<uint32_t>(f);
+    return std::bit_cast<float>(f > 0.0f ? b - 1 : b + 1);
+}
+inline float step_up(float f) { return -step_down(-f); }
+
 inline float round_down(double d) {
     const float f = float(d);
-    return double(f) <= d ? f : std::nextafter(f, -kInfinity);
+    return double(f) <= d ? f : step_down(f);
 }
 inline float round_up(double d) {
     const float f = float(d);
-    return double(f) >= d ? f : std::nextafter(f, kInfinity);
+    return double(f) >= d ? f : step_up(f);
 }
 
 struct Spatial {
