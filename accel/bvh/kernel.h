@@ -290,13 +290,26 @@ inline bool sphere_lane(const Block& b, int l, const Ray& ray, float t, float& t
     return intersect_sphere(ray, Vec3f(b.p[0][0][l], b.p[0][1][l], b.p[0][2][l]), b.p[1][0][l], t, ts);
 }
 
-/// Portable child selection for policies without a vector form (SSE2): the hit lane
-/// with the smallest entry distance, and the other hit lanes pushed in lane order.
+/// The order key of a hit lane's entry distance for occlusion rays: its top 16 bits
+/// (a hit lane's distance is never negative, so the bits order like the floats; keys
+/// agree to 1/128 of the distance). The 8-lane kernels find the smallest key with one
+/// phminposuw (node8.h); every ISA uses the same key, so all visit the same nodes.
+inline uint32_t order_key(float d) {
+    uint32_t b;
+    std::memcpy(&b, &d, 4);
+    return b >> 16;
+}
+
+/// Portable child selection for policies without a vector form (SSE2): the first hit
+/// lane with the smallest order key, and the other hit lanes pushed in lane order.
 PT_INLINE inline int nearest_scalar(const float* dist, unsigned mask) {
     int best = __builtin_ctz(mask);
+    uint32_t best_key = order_key(dist[best]);
     for (mask &= mask - 1; mask; mask &= mask - 1) {
         const int i = __builtin_ctz(mask);
-        best = dist[i] < dist[best] ? i : best;
+        const uint32_t k = order_key(dist[i]);
+        best = k < best_key ? i : best;
+        best_key = k < best_key ? k : best_key;
     }
     return best;
 }
@@ -494,8 +507,10 @@ uint32_t traverse(const WideBvh& w, const Ray& ray_in, float& t_io, float& u_out
 /// function, not a flag of traverse: the segment never shrinks, so the stack holds only
 /// child references (no distances, no culling on pop), children are pushed by the
 /// policy's branch-free compaction (P::push), and the leaf test's t, u, v are dead code.
-/// Order: the nearest hit child is entered first (P::nearest, branch-free), the others
-/// stay in lane order; a full sort measured slower for shadow rays (RESULTS.md).
+/// Order: the nearest hit child is entered first (P::nearest, branch-free; on the 8-lane
+/// kernels nearest to 1/128 of the distance), the others stay in lane order; a full sort
+/// measured slower for shadow rays, and no order at all (lane order) 17-20 % slower on
+/// CBbunny, though 10-13 % faster on cow and bunny (RESULTS.md, sessions 5 and 7).
 /// Counting as in traverse.
 template <class P, TriangleTest Test, bool Count, bool HasSpheres>
 bool occlude(const WideBvh& w, const Ray& ray_in, TraceStats& stats) {
