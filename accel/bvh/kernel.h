@@ -308,8 +308,7 @@ PT_INLINE inline int nearest_scalar(const float* dist, unsigned mask) {
     for (mask &= mask - 1; mask; mask &= mask - 1) {
         const int i = __builtin_ctz(mask);
         const uint32_t k = order_key(dist[i]);
-        best = k < best_key ? i : best;
-        best_key = k < best_key ? k : best_key;
+        if (k < best_key) best = i, best_key = k;
     }
     return best;
 }
@@ -350,10 +349,9 @@ PT_INLINE inline void prefetch_child(const typename P::Node* nodes, const Block*
     }
 }
 
-/// Returns the index of the closest primitive hit in [ray.t_min, t] (Block::prim), or
-/// Block::kNone, shrinking t as hits are found; `where` gets the block and lane it was
-/// found in (BvhBase::finish takes the geometry and the normal from there, not from the
-/// slot map or the scene's arrays).
+/// True when some primitive is hit in [ray.t_min, t], shrinking t as hits are found;
+/// `where` gets the block and lane of the closest (BvhBase::finish takes the ids and the
+/// normal from there, not from the slot map or the scene's arrays).
 ///
 /// Counting (only when Count; the timed path is its own instantiation and counts
 /// nothing): nodes_visited = 1 per wide node whose child boxes are tested (the root's
@@ -365,21 +363,21 @@ PT_INLINE inline void prefetch_child(const typename P::Node* nodes, const Block*
 /// start) measured 10-25 % of a shadow or diffuse ray on the course meshes, whose rays
 /// all start inside the scene box (RESULTS.md, session 5).
 template <class P, TriangleTest Test, bool Count, bool HasSpheres>
-uint32_t traverse(const WideBvh& w, const Ray& ray_in, float& t_io, float& u_out, float& v_out,
-                  BlockLane& where, TraceStats& stats) {
+bool traverse(const WideBvh& w, const Ray& ray_in, float& t_io, float& u_out, float& v_out, BlockLane& where,
+              TraceStats& stats) {
     const typename P::Node* nodes = node_array<typename P::Node>(w);
-    if (!nodes) return Block::kNone;
+    if (!nodes) return false;
     // Local copies: through references every store to t could alias the ray and the
     // node data (all floats), forcing reloads in the innermost loop.
     const Ray ray = ray_in;
     float t = t_io, u = 0.0f, v = 0.0f;
     uint64_t boxes = 0, tests = 0;
-    uint32_t found = Block::kNone;
-    BlockLane at{};
+    BlockLane at{};  // at.block stays null until a hit is found
     const auto finish = [&]() {
         if constexpr (Count) stats.nodes_visited += boxes, stats.prim_tests += tests;
-        if (found != Block::kNone) t_io = t, u_out = u, v_out = v, where = at;
-        return found;
+        if (!at.block) return false;
+        t_io = t, u_out = u, v_out = v, where = at;
+        return true;
     };
     const Planes pl(ray);
     const WatertightRay wr = Test == TriangleTest::Watertight ? WatertightRay(ray.dir) : WatertightRay();
@@ -405,7 +403,7 @@ uint32_t traverse(const WideBvh& w, const Ray& ray_in, float& t_io, float& u_out
                 if (HasSpheres && (count & WideNode::kSpheres)) {
                     for (int l = 0; l < 4 && b->prim[l] != Block::kNone; ++l) {
                         float ts;
-                        if (sphere_lane(*b, l, ray, t, ts)) t = ts, u = v = 0.0f, found = b->prim[l], at = {b, l};
+                        if (sphere_lane(*b, l, ray, t, ts)) t = ts, u = v = 0.0f, at = {b, l};
                     }
                     continue;
                 }
@@ -425,7 +423,7 @@ uint32_t traverse(const WideBvh& w, const Ray& ray_in, float& t_io, float& u_out
                             const int l = __builtin_ctz(hit);
                             hit &= hit - 1;
                             const Block* hb = b + (l >> 2);
-                            if (tt[l] <= t) t = tt[l], u = uu[l], v = vv[l], found = hb->prim[l & 3], at = {hb, l & 3};
+                            if (tt[l] <= t) t = tt[l], u = uu[l], v = vv[l], at = {hb, l & 3};
                         }
                         ++b;
                         continue;
@@ -440,7 +438,7 @@ uint32_t traverse(const WideBvh& w, const Ray& ray_in, float& t_io, float& u_out
                 do {
                     const int l = __builtin_ctz(hit);
                     hit &= hit - 1;
-                    if (tt[l] <= t) t = tt[l], u = uu[l], v = vv[l], found = b->prim[l], at = {b, l};
+                    if (tt[l] <= t) t = tt[l], u = uu[l], v = vv[l], at = {b, l};
                 } while (hit);
             }
         } else {
@@ -593,12 +591,12 @@ public:
         ++stats.rays;
         float t = ray.t_max, u = 0, v = 0;
         BlockLane at{};
-        const uint32_t prim =
+        const bool found =
             stats.counting ? (has_spheres_ ? traverse<P, Test, true, true>(wide_, ray, t, u, v, at, stats)
                                            : traverse<P, Test, true, false>(wide_, ray, t, u, v, at, stats))
             : has_spheres_ ? traverse<P, Test, false, true>(wide_, ray, t, u, v, at, stats)
                            : traverse<P, Test, false, false>(wide_, ray, t, u, v, at, stats);
-        if (prim == Block::kNone) return false;
+        if (!found) return false;
         finish(at, ray, t, u, v, hit);
         return true;
     }
