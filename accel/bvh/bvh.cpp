@@ -289,10 +289,30 @@ std::optional<BvhReport> inspect_bvh(const Accelerator& accel) {
                     fail(r.wide_ok, "wide lane sticks out of its parent");
                 }
                 if (!(child[i] & WideNode::kLeaf)) {
-                    if (child[i] <= it.idx || child[i] >= wide_count)
+                    if (child[i] <= it.idx || child[i] >= wide_count) {
                         fail(r.wide_ok, "wide child index bad");
-                    else
-                        stack.push_back({child[i], lb});
+                        continue;
+                    }
+                    stack.push_back({child[i], lb});
+                    // The lane's count is the child's leaf-block hint exactly when the
+                    // child is a bottom node: its blocks, in one contiguous run.
+                    const uint32_t* cc = quant ? w.qnodes[child[i]].child : w.nodes[child[i]].child;
+                    const uint32_t* cn = quant ? w.qnodes[child[i]].count : w.nodes[child[i]].count;
+                    bool bottom = true;
+                    uint32_t first = UINT32_MAX, end = 0, total = 0;
+                    for (int l = 0; l < kWidth; ++l) {
+                        if (cc[l] == WideNode::kEmpty) continue;
+                        if (!(cc[l] & WideNode::kLeaf)) {
+                            bottom = false;
+                            break;
+                        }
+                        const uint32_t f = cc[l] & ~WideNode::kLeaf, nb = cn[l] & ~WideNode::kSpheres;
+                        first = std::min(first, f), end = std::max(end, f + nb), total += nb;
+                    }
+                    const uint32_t want =
+                        bottom && total == end - first ? WideNode::leaves_hint(first, total) : 0u;
+                    if (count[i] != want)
+                        fail(r.wide_ok, "interior lane's leaf-block hint is not its bottom child's blocks");
                     continue;
                 }
                 const uint32_t first = child[i] & ~WideNode::kLeaf;

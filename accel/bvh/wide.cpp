@@ -302,9 +302,14 @@ private:
             for (int k = 0; k < 6; ++k) w.b[k][i] = nodes_[c.binary].b[k];
             if (c.leaf) {
                 leaf(w, i, c, t.first_block[i]);
+            } else if (t.sub[i] >= 0) {
+                w.count[i] = 0;  // a top node has more than kFrontier primitives: never a bottom node
+                w.child[i] = tops_[t.sub[i]].self;
             } else {
-                w.count[i] = 0;
-                w.child[i] = t.sub[i] >= 0 ? tops_[t.sub[i]].self : jobs_[~t.sub[i]].node_base;
+                // A job of one wide node is a bottom node, its blocks all the job's.
+                const Job& j = jobs_[~t.sub[i]];
+                w.count[i] = j.nodes == 1 ? WideNode::leaves_hint(j.block_base, j.blocks) : 0u;
+                w.child[i] = j.node_base;
             }
         }
     }
@@ -312,9 +317,11 @@ private:
     /// Writes the wide subtree rooted at binary interior node `binary` from wide node
     /// `next_node` and block `next_block` on: the node first, then each lane's subtree
     /// in lane order, each leaf's blocks where the walk reaches it.
-    uint32_t emit(uint32_t binary, uint32_t& next_node, uint32_t& next_block) {
+    /// `bottom`, if given, learns whether every lane is a leaf.
+    uint32_t emit(uint32_t binary, uint32_t& next_node, uint32_t& next_block, bool* bottom = nullptr) {
         Kid kids[kWidth];
         const int n = gather(binary, kids);
+        if (bottom) *bottom = std::all_of(kids, kids + n, [](const Kid& k) { return k.leaf; });
         const uint32_t self = next_node++;
         WideNode& w = out_.nodes[self];  // sized once: the reference stays valid
         for (int i = 0; i < kWidth; ++i) {
@@ -328,8 +335,10 @@ private:
                 leaf(w, i, c, next_block);
                 next_block += nblocks(c);
             } else {
-                w.count[i] = 0;
-                w.child[i] = emit(c.binary, next_node, next_block);
+                const uint32_t first = next_block;
+                bool bottom = false;
+                w.child[i] = emit(c.binary, next_node, next_block, &bottom);
+                w.count[i] = bottom ? WideNode::leaves_hint(first, next_block - first) : 0u;
             }
         }
         return self;

@@ -27,11 +27,24 @@ constexpr int kWidth = 8;
 struct alignas(64) WideNode {
     float b[6][kWidth];      ///< [lo.x, lo.y, lo.z, hi.x, hi.y, hi.z][lane]
     uint32_t child[kWidth];  ///< interior: WideNode index; leaf: kLeaf | first block; kEmpty
-    uint32_t count[kWidth];  ///< leaf: number of blocks | kSpheres; otherwise 0
+    /// Leaf: number of blocks | kSpheres. Interior child whose lanes are all leaves (a
+    /// bottom node): where its blocks lie, as (number << kHintShift) | first, which
+    /// the compressed layout's kernels prefetch on entering it (kernel.h,
+    /// prefetch_leaves); 0 for any other interior child, or one whose blocks the
+    /// fields cannot hold.
+    uint32_t count[kWidth];
 
     static constexpr uint32_t kLeaf = 0x80000000u;
     static constexpr uint32_t kEmpty = 0xFFFFFFFFu;
     static constexpr uint32_t kSpheres = 0x80000000u;  ///< in count: the blocks hold spheres
+    static constexpr uint32_t kHintShift = 24;
+    static constexpr uint32_t kHintBlocks = 1u << kHintShift;  ///< first block below this (64M triangles)
+    static constexpr uint32_t kHintMaxBlocks = 24;             ///< 8 leaves of up to 12 primitives (sbvh)
+
+    /// The count of an interior lane whose child, a bottom node, has blocks [first, first + n).
+    static uint32_t leaves_hint(uint32_t first, uint32_t n) {
+        return first < kHintBlocks && n <= kHintMaxBlocks ? (n << kHintShift) | first : 0u;
+    }
 };
 static_assert(sizeof(WideNode) == 32 * kWidth);
 
