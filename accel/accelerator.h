@@ -61,6 +61,9 @@ enum class Isa : uint8_t { Auto, Sse2, Avx2, Avx512 };
 /// Custom BVH node layout: float child boxes (256-byte nodes) or quantized ones
 /// (128 bytes, Ylitie et al. 2017); Auto picks by the tree's size (accel/bvh/bvh.cpp).
 enum class NodeLayout : uint8_t { Auto, Float, Quantized };
+/// Custom BVH: whether traversal prefetches a bottom node's leaf blocks on entering it.
+/// Auto: where the blocks outgrow the caches (accel/bvh/wide.h, kLeafHintBytes).
+enum class LeafPrefetch : uint8_t { Auto, Off, On };
 
 struct AccelOptions {
     TriangleTest triangle = TriangleTest::Fast;
@@ -81,6 +84,7 @@ struct AccelOptions {
     /// default, they would hold 32 bytes per binary node and 8 per leaf slot (about a
     /// third of the whole on the 5M sphere).
     bool keep_binary_tree = false;
+    LeafPrefetch leaf_prefetch = LeafPrefetch::Auto;  ///< custom BVH (see LeafPrefetch)
 };
 
 /// Facts about a built accelerator, for the summary and the benchmarks.

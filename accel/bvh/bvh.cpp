@@ -56,7 +56,7 @@ bool BvhBase::build(std::span<const GeometryView> geometry, const AccelOptions& 
     tbb::task_arena arena(opt.build_threads > 0 ? opt.build_threads : tbb::task_arena::automatic);
     bool compressed = false;
     arena.execute([&] {
-        wide_ = collapse(tree_, geometry_, opt.triangle, leaf_size_);
+        wide_ = collapse(tree_, geometry_, opt.triangle, leaf_size_, opt.leaf_prefetch);
         compressed = quantized && quantize(wide_);
     });
 
@@ -248,6 +248,7 @@ std::optional<BvhReport> inspect_bvh(const Accelerator& accel) {
     const WideBvh& w = b->wide_;
     const bool quant = !w.qnodes.empty();
     r.quantized = quant;
+    r.leaf_hints = w.leaf_hints;
     const size_t wide_count = quant ? w.qnodes.size() : w.nodes.size();
     r.wide_nodes = wide_count;
     r.blocks = w.blocks.size();
@@ -310,7 +311,7 @@ std::optional<BvhReport> inspect_bvh(const Accelerator& accel) {
                         first = std::min(first, f), end = std::max(end, f + nb), total += nb;
                     }
                     const uint32_t want =
-                        bottom && total == end - first ? WideNode::leaves_hint(first, total) : 0u;
+                        w.leaf_hints && bottom && total == end - first ? WideNode::leaves_hint(first, total) : 0u;
                     if (count[i] != want)
                         fail(r.wide_ok, "interior lane's leaf-block hint is not its bottom child's blocks");
                     continue;

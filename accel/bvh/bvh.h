@@ -70,6 +70,7 @@ struct BvhReport {
     /// every primitive once, with nested, containing boxes.
     uint64_t wide_nodes = 0, blocks = 0;
     bool quantized = false;          ///< traversal reads compressed nodes (QuantNode)
+    bool leaf_hints = false;         ///< interior lanes carry leaf-block prefetch hints
     double filled_lanes = 0;         ///< primitives / (4 * blocks)
     bool wide_ok = true;
     std::vector<std::string> errors; ///< first few violations, human readable

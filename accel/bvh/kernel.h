@@ -352,23 +352,19 @@ PT_INLINE inline void prefetch_child(const typename P::Node* nodes, const Block*
 /// Starts the fetch of a bottom node's leaf blocks as the traversal enters that node, so
 /// the blocks arrive with the node instead of one memory latency after it. `hint` is the
 /// node's lane `count` in its parent (WideNode::kHint*: the blocks under a child whose
-/// lanes are all leaves, contiguous in the depth-first layout; 0 for any other child).
+/// lanes are all leaves, contiguous in the depth-first layout; 0 for any other child,
+/// and for every child of a tree whose blocks fit the caches: wide.h, kLeafHintBytes).
 /// The bottom of the tree is where a ray's dependent chain of misses ends: a node, then
-/// the block it selects. Policies choose (kPrefetchLeaves): the compressed layout, auto's
-/// pick for trees far beyond the caches, measured on the 5M sphere (A/B, 3 rounds,
-/// medians of the ratio to Embree): camera 1.13 -> 1.27, shadow 1.06 -> 1.29, diffuse
-/// 0.98 -> 1.05. On the course meshes, whose blocks sit in L2/L3, it cost 1-7 %, so the
-/// float layout does not. Prefetching into L2 only, or also when a subtree is pushed,
-/// gained less (RESULTS.md, session 8).
-template <bool kOn>
+/// the block it selects. Measured on the 5M sphere (A/B, 3 rounds, medians of the ratio
+/// to Embree): camera 1.13 -> 1.27, shadow 1.06 -> 1.29, diffuse 0.98 -> 1.05; on 1M
+/// triangles, float nodes: camera +9 %, shadow +23 %. Prefetching into L2 only, or also
+/// when a subtree is pushed, gained less (RESULTS.md, session 8).
 PT_INLINE inline void prefetch_leaves(const Block* blocks, uint32_t hint) {
-    if constexpr (kOn) {
-        if (!hint) return;
-        const Block* first = blocks + (hint & (WideNode::kHintBlocks - 1));
-        const char* p = reinterpret_cast<const char*>(first);
-        const char* end = reinterpret_cast<const char*>(first + (hint >> WideNode::kHintShift));
-        for (; p < end; p += 64) _mm_prefetch(p, _MM_HINT_T0);
-    }
+    if (!hint) return;
+    const Block* first = blocks + (hint & (WideNode::kHintBlocks - 1));
+    const char* p = reinterpret_cast<const char*>(first);
+    const char* end = reinterpret_cast<const char*>(first + (hint >> WideNode::kHintShift));
+    for (; p < end; p += 64) _mm_prefetch(p, _MM_HINT_T0);
 }
 
 /// True when some primitive is hit in [ray.t_min, t], shrinking t as hits are found;
@@ -464,7 +460,7 @@ bool traverse(const WideBvh& w, const Ray& ray_in, float& t_io, float& u_out, fl
                 } while (hit);
             }
         } else {
-            prefetch_leaves<P::kPrefetchLeaves>(blocks, count);
+            prefetch_leaves(blocks, count);
             const auto& n = nodes[ref];
             if constexpr (Count) ++boxes;
             alignas(32) float dist[kWidth];
@@ -580,7 +576,7 @@ bool occlude(const WideBvh& w, const Ray& ray_in, TraceStats& stats) {
                 if (tri4<Test>(*b, lr, t).mask) return finish(true);
             }
         } else {
-            prefetch_leaves<P::kPrefetchLeaves>(blocks, count);
+            prefetch_leaves(blocks, count);
             const auto& n = nodes[ref];
             if constexpr (Count) ++boxes;
             alignas(32) float dist[kWidth];

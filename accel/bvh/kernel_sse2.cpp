@@ -30,7 +30,6 @@ struct Sse2 {
     using Node = WideNode;
     static constexpr bool kPrefetch = false;
     static constexpr bool kPrefetchShadow = false;
-    static constexpr bool kPrefetchLeaves = false;
     using Box = BoxConstants<__m128>;
     /// The eight child boxes as two 4-lane halves.
     PT_INLINE static unsigned test(const WideNode& n, const Box& r, float t, float* dist) {
@@ -57,7 +56,6 @@ struct Sse2Q : Sse2 {
     using Node = QuantNode;
     static constexpr bool kPrefetch = true;
     static constexpr bool kPrefetchShadow = true;
-    static constexpr bool kPrefetchLeaves = true;
     PT_INLINE static unsigned test(const QuantNode& n, const Box& r, float t, float* dist) {
         __m128 s[3], org[3];
         for (int a = 0; a < 3; ++a) {

@@ -24,7 +24,6 @@ struct Node8 {
     using Node = WideNode;
     static constexpr bool kPrefetch = true;
     static constexpr bool kPrefetchShadow = false;
-    static constexpr bool kPrefetchLeaves = false;
     using Box = BoxConstants<__m256>;
     /// The subtract-then-multiply form (not an FMA of precomputed org*inv): its two
     /// roundings are what Ize's far-distance scale is proven for. NaN operands go first
@@ -92,7 +91,6 @@ struct QNode8 : Node8 {
     using Node = QuantNode;
     static constexpr bool kPrefetch = true;
     static constexpr bool kPrefetchShadow = true;
-    static constexpr bool kPrefetchLeaves = true;
     PT_INLINE static unsigned test(const QuantNode& n, const Box& r, float t, float* dist) {
         // The grid steps: each biased exponent byte shifted into a float's exponent
         // field (lane 3 holds `valid` and is not used).

@@ -119,8 +119,8 @@ private:
 class Collapser {
 public:
     Collapser(const BinaryTree& t, const Plan& plan, std::span<const GeometryView> g, TriangleTest test,
-              WideBvh& out)
-        : nodes_(t.nodes), order_(t.order), plan_(plan), g_(g), test_(test), out_(out) {
+              LeafPrefetch prefetch, WideBvh& out)
+        : nodes_(t.nodes), order_(t.order), plan_(plan), g_(g), test_(test), prefetch_(prefetch), out_(out) {
         out_.one_geom = order_.empty() ? 0 : order_[0].geom;
         several_ = std::any_of(order_.begin(), order_.end(), [&](const PrimRef& r) { return r.geom != out_.one_geom; });
     }
@@ -136,6 +136,8 @@ public:
         // subtree taking the room it counted.
         uint32_t next_node = 0, next_block = 0;
         place(0, next_node, next_block);
+        out_.leaf_hints = prefetch_ == LeafPrefetch::On ||
+                          (prefetch_ == LeafPrefetch::Auto && uint64_t(next_block) * sizeof(Block) >= kLeafHintBytes);
         out_.nodes.reserve(next_node);
         out_.blocks.reserve(next_block);
         prepare_fresh(out_.nodes.data(), size_t(next_node) * sizeof(WideNode));
@@ -308,7 +310,7 @@ private:
             } else {
                 // A job of one wide node is a bottom node, its blocks all the job's.
                 const Job& j = jobs_[~t.sub[i]];
-                w.count[i] = j.nodes == 1 ? WideNode::leaves_hint(j.block_base, j.blocks) : 0u;
+                w.count[i] = out_.leaf_hints && j.nodes == 1 ? WideNode::leaves_hint(j.block_base, j.blocks) : 0u;
                 w.child[i] = j.node_base;
             }
         }
@@ -338,7 +340,7 @@ private:
                 const uint32_t first = next_block;
                 bool bottom = false;
                 w.child[i] = emit(c.binary, next_node, next_block, &bottom);
-                w.count[i] = bottom ? WideNode::leaves_hint(first, next_block - first) : 0u;
+                w.count[i] = out_.leaf_hints && bottom ? WideNode::leaves_hint(first, next_block - first) : 0u;
             }
         }
         return self;
@@ -391,6 +393,7 @@ private:
     const Plan& plan_;
     std::span<const GeometryView> g_;
     TriangleTest test_;
+    LeafPrefetch prefetch_;
     WideBvh& out_;
     bool several_ = false;  ///< primitives of more than one geometry: lanes record theirs
     std::vector<Top> tops_;
@@ -432,12 +435,12 @@ double wide_sah_cost(const WideBvh& w) {
 }
 
 WideBvh collapse(const BinaryTree& tree, std::span<const GeometryView> geometry, TriangleTest test,
-                 uint32_t max_leaf) {
+                 uint32_t max_leaf, LeafPrefetch prefetch) {
     WideBvh w;
     if (tree.nodes.empty()) return w;
     for (int k = 0; k < 6; ++k) w.root[k] = tree.nodes[0].b[k];
     const Plan plan(tree.nodes, tree.order, geometry, max_leaf);
-    Collapser c(tree, plan, geometry, test, w);
+    Collapser c(tree, plan, geometry, test, prefetch, w);
     if (tree.nodes[0].is_leaf())
         c.lone_leaf();
     else

@@ -129,6 +129,8 @@ struct WideBvh {
     /// geometries; otherwise empty, and every primitive belongs to one_geom.
     TraversalVector<uint32_t> lane_geom;
     uint32_t one_geom = 0;
+    /// Interior lanes carry their bottom children's leaf-block hints (WideNode::count).
+    bool leaf_hints = false;
     float root[6] = {};               ///< scene box (bounds(); traversal starts at nodes[0])
 };
 
@@ -159,12 +161,20 @@ struct CollapseCost {
 /// the expected node tests and leaf costs of a ray that hits the root box.
 double wide_sah_cost(const WideBvh& w);
 
+/// Leaf blocks of at least this many bytes get prefetch hints under LeafPrefetch::Auto.
+/// Measured (RESULTS.md, session 8): on the course meshes (blocks of 0.2-2.5 MB, in L2
+/// or L3) the prefetch cost 1-7 %; on a 250K-triangle sphere (~10 MB) it was even; on
+/// 1M (~40 MB) and 5M triangles (~200 MB) it gained 7-22 %. The threshold lies
+/// between, near the size of a last-level cache.
+constexpr uint64_t kLeafHintBytes = uint64_t(24) << 20;
+
 /// Collapses the binary tree into 8-wide nodes and packs every leaf into blocks. Which
 /// binary nodes become wide nodes and which subtrees become leaves (of at most
 /// `max_leaf` primitives; a binary leaf stays a leaf whatever its size) is the SAH-optimal
 /// choice of Ylitie et al. 2017 (wide.cpp).
+/// Interior lanes get leaf-block hints as `prefetch` says (Auto: kLeafHintBytes).
 WideBvh collapse(const BinaryTree& tree, std::span<const GeometryView> geometry, TriangleTest test,
-                 uint32_t max_leaf);
+                 uint32_t max_leaf, LeafPrefetch prefetch = LeafPrefetch::Auto);
 
 /// Bytes the traversal arrays occupy.
 inline uint64_t wide_bytes(const WideBvh& w) {

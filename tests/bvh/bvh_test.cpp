@@ -138,6 +138,9 @@ AccelOptions options(BvhSplit split, TriangleTest test, uint32_t leaf_size = 4) 
     o.triangle = test;
     o.leaf_size = leaf_size;
     o.keep_binary_tree = true;  // for inspect_bvh; BvhMemory.BinaryTreeFreedUnlessKept tests the default
+    // Every kernel traverses, and inspect_bvh checks, the leaf-block hints that only
+    // trees beyond the caches get by default (BvhLayout.LeafHintsWhereTheBlocksOutgrowTheCaches).
+    o.leaf_prefetch = LeafPrefetch::On;
     return o;
 }
 
@@ -1150,3 +1153,28 @@ TEST(BvhMemory, BinaryTreeFreedUnlessKept) {
 }
 
 }  // namespace
+
+// Leaf-block prefetch hints (kernel.h, prefetch_leaves): by default only trees whose
+// blocks outgrow the caches get them; On and Off force the choice. inspect_bvh checks
+// each hint against its child's blocks wherever the tree has hints.
+TEST(BvhLayout, LeafHintsWhereTheBlocksOutgrowTheCaches) {
+    Mesh small = uv_sphere(64, 96, {0, 0, 0}, 1.0f);
+    Mesh big = grid(700);  // 980 000 triangles: ~40 MB of blocks
+    for (Mesh* m : {&small, &big}) {
+        GeometryView v = m->view();
+        SCOPED_TRACE(std::to_string(v.num_prims) + " triangles");
+        for (LeafPrefetch mode : {LeafPrefetch::Auto, LeafPrefetch::On, LeafPrefetch::Off}) {
+            if (m == &big && mode != LeafPrefetch::Auto) continue;  // the rule is the point there
+            AccelOptions o = options(BvhSplit::Sah, TriangleTest::Fast, 0);
+            o.leaf_prefetch = mode;
+            auto bvh = make_bvh({&v, 1}, o);
+            const auto rep = inspect_bvh(*bvh);
+            ASSERT_TRUE(rep.has_value());
+            for (const std::string& e : rep->errors) ADD_FAILURE() << e;
+            EXPECT_TRUE(rep->wide_ok);
+            const bool outgrows = rep->blocks * sizeof(bvh::Block) >= bvh::kLeafHintBytes;
+            EXPECT_EQ(outgrows, m == &big);
+            EXPECT_EQ(rep->leaf_hints, mode == LeafPrefetch::On || (mode == LeafPrefetch::Auto && outgrows));
+        }
+    }
+}
