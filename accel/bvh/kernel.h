@@ -357,8 +357,8 @@ PT_INLINE inline void prefetch_child(const typename P::Node* nodes, const Block*
 /// The bottom of the tree is where a ray's dependent chain of misses ends: a node, then
 /// the block it selects. Measured on the 5M sphere (A/B, 3 rounds, medians of the ratio
 /// to Embree): camera 1.13 -> 1.27, shadow 1.06 -> 1.29, diffuse 0.98 -> 1.05; on 1M
-/// triangles, float nodes: camera +9 %, shadow +23 %. Prefetching into L2 only, or also
-/// when a subtree is pushed, gained less (RESULTS.md, session 8).
+/// triangles, float nodes: 1.27 -> 1.43, 1.06 -> 1.17, 1.05 -> 1.17. Prefetching into L2
+/// only, or also when a subtree is pushed, gained less (RESULTS.md, session 8).
 PT_INLINE inline void prefetch_leaves(const Block* blocks, uint32_t hint) {
     if (!hint) return;
     const Block* first = blocks + (hint & (WideNode::kHintBlocks - 1));

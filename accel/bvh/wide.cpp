@@ -319,11 +319,9 @@ private:
     /// Writes the wide subtree rooted at binary interior node `binary` from wide node
     /// `next_node` and block `next_block` on: the node first, then each lane's subtree
     /// in lane order, each leaf's blocks where the walk reaches it.
-    /// `bottom`, if given, learns whether every lane is a leaf.
-    uint32_t emit(uint32_t binary, uint32_t& next_node, uint32_t& next_block, bool* bottom = nullptr) {
+    uint32_t emit(uint32_t binary, uint32_t& next_node, uint32_t& next_block) {
         Kid kids[kWidth];
         const int n = gather(binary, kids);
-        if (bottom) *bottom = std::all_of(kids, kids + n, [](const Kid& k) { return k.leaf; });
         const uint32_t self = next_node++;
         WideNode& w = out_.nodes[self];  // sized once: the reference stays valid
         for (int i = 0; i < kWidth; ++i) {
@@ -337,10 +335,13 @@ private:
                 leaf(w, i, c, next_block);
                 next_block += nblocks(c);
             } else {
-                const uint32_t first = next_block;
-                bool bottom = false;
-                w.child[i] = emit(c.binary, next_node, next_block, &bottom);
-                w.count[i] = out_.leaf_hints && bottom ? WideNode::leaves_hint(first, next_block - first) : 0u;
+                // A subtree of one wide node is a bottom node (an interior lane would
+                // have added another), its blocks all the subtree's: as in write_top.
+                const uint32_t node0 = next_node, block0 = next_block;
+                w.child[i] = emit(c.binary, next_node, next_block);
+                w.count[i] = out_.leaf_hints && next_node - node0 == 1
+                                 ? WideNode::leaves_hint(block0, next_block - block0)
+                                 : 0u;
             }
         }
         return self;

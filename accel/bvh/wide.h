@@ -28,10 +28,10 @@ struct alignas(64) WideNode {
     float b[6][kWidth];      ///< [lo.x, lo.y, lo.z, hi.x, hi.y, hi.z][lane]
     uint32_t child[kWidth];  ///< interior: WideNode index; leaf: kLeaf | first block; kEmpty
     /// Leaf: number of blocks | kSpheres. Interior child whose lanes are all leaves (a
-    /// bottom node): where its blocks lie, as (number << kHintShift) | first, which
-    /// the compressed layout's kernels prefetch on entering it (kernel.h,
-    /// prefetch_leaves); 0 for any other interior child, or one whose blocks the
-    /// fields cannot hold.
+    /// bottom node) of a tree with WideBvh::leaf_hints: where its blocks lie, as
+    /// (number << kHintShift) | first, which the kernels prefetch on entering it
+    /// (kernel.h, prefetch_leaves); 0 for any other interior child, or one whose
+    /// blocks the fields cannot hold.
     uint32_t count[kWidth];
 
     static constexpr uint32_t kLeaf = 0x80000000u;

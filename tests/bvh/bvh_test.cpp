@@ -1152,7 +1152,6 @@ TEST(BvhMemory, BinaryTreeFreedUnlessKept) {
     }
 }
 
-}  // namespace
 
 // Leaf-block prefetch hints (kernel.h, prefetch_leaves): by default only trees whose
 // blocks outgrow the caches get them; On and Off force the choice. inspect_bvh checks
@@ -1178,3 +1177,5 @@ TEST(BvhLayout, LeafHintsWhereTheBlocksOutgrowTheCaches) {
         }
     }
 }
+
+}  // namespace
