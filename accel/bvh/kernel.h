@@ -41,11 +41,18 @@
 
 namespace accel::bvh::PT_KERNEL_NS {
 
-/// gamma(n) = n*u / (1 - n*u), u = 2^-24 (pbrt's notation). Scaling the far slab
-/// distance by 1 + 2*gamma(3) keeps boxes a rounding error would cull (Ize 2013).
+/// gamma(n) = n*u / (1 - n*u), u = 2^-24 (pbrt's notation). A slab distance
+/// (b - o) * inv carries three roundings (the difference, 1/d, the product), so a box
+/// the ray truly enters can come out with its far distance below its near one; Ize 2013
+/// scales the far distance by 1 + 2*gamma(3) to keep it. Here the scale is folded into
+/// the inverse direction the far planes use (inv_far = inv * kFarScale, once per ray),
+/// a fourth rounding, hence gamma(4): the far distance is then >= its true value times
+/// (1 + 2*gamma(4)) * (1 - gamma(4)) >= 1 + gamma(3), the most the near distance can
+/// exceed its own. Folding takes the multiply off the end of each node test's
+/// dependent chain (see Node8::test).
 constexpr float kUnitRoundoff = std::numeric_limits<float>::epsilon() * 0.5f;
 constexpr float gamma_n(int n) { return (n * kUnitRoundoff) / (1 - n * kUnitRoundoff); }
-constexpr float kFarScale = 1.0f + 2.0f * gamma_n(3);
+constexpr float kFarScale = 1.0f + 2.0f * gamma_n(4);
 
 
 /// Per-ray slab constants: inverse direction, and for each axis which row of the box is
@@ -75,17 +82,21 @@ template <>
 inline __m256 splat<__m256>(float x) { return _mm256_set1_ps(x); }
 #endif
 
-/// Per-ray constants of a node test over vectors V: origin, inverse direction, the
-/// near accumulator's start value, the far-distance scale and the near/far rows of
-/// Planes. (The far accumulator starts at the segment's end, splat per node: no
-/// constant.) Nine vectors: with the leaf test's direction they fit AVX2's 16 registers.
+/// Per-ray constants of a node test over vectors V: origin, inverse direction for the
+/// near planes and, scaled by kFarScale, for the far ones, the near accumulator's start
+/// value and the near/far rows of Planes. (The far accumulator starts at the segment's
+/// end times kFarScale, splat per node: no constant.) Ten vectors; AVX2's kernel keeps
+/// some in memory operands, off the dependent chain.
 template <class V>
 struct BoxConstants {
-    V o[3], inv[3], t_min, scale;
+    V o[3], inv[3], inv_far[3], t_min;
     int nx, ny, nz, fx, fy, fz;
     PT_INLINE BoxConstants(const Planes& p, float tmin) {
-        for (int a = 0; a < 3; ++a) o[a] = splat<V>(p.org[a]), inv[a] = splat<V>(p.inv[a]);
-        t_min = splat<V>(tmin), scale = splat<V>(kFarScale);
+        for (int a = 0; a < 3; ++a) {
+            o[a] = splat<V>(p.org[a]), inv[a] = splat<V>(p.inv[a]);
+            inv_far[a] = splat<V>(p.inv[a] * kFarScale);
+        }
+        t_min = splat<V>(tmin);
         nx = p.near[0], ny = p.near[1], nz = p.near[2], fx = p.far[0], fy = p.far[1], fz = p.far[2];
     }
 };
@@ -462,6 +473,10 @@ bool traverse(const WideBvh& w, const Ray& ray_in, float& t_io, float& u_out, fl
         } else {
             prefetch_leaves(blocks, count);
             const auto& n = nodes[ref];
+            // The child and count rows share the node's last cache line (the second of a
+            // QuantNode), which the box test does not read: without this its fetch would
+            // start only once the test has chosen a lane, one more latency in the chain.
+            _mm_prefetch(reinterpret_cast<const char*>(n.child), _MM_HINT_T0);
             if constexpr (Count) ++boxes;
             alignas(32) float dist[kWidth];
             unsigned mask = P::test(n, box, t, dist);
@@ -578,6 +593,7 @@ bool occlude(const WideBvh& w, const Ray& ray_in, TraceStats& stats) {
         } else {
             prefetch_leaves(blocks, count);
             const auto& n = nodes[ref];
+            _mm_prefetch(reinterpret_cast<const char*>(n.child), _MM_HINT_T0);  // as in traverse
             if constexpr (Count) ++boxes;
             alignas(32) float dist[kWidth];
             unsigned mask = P::test(n, box, t, dist);
