@@ -542,8 +542,9 @@ bool traverse(const WideBvh& w, const Ray& ray_in, float& t_io, float& u_out, fl
 /// Order: the nearest hit child is entered first (P::nearest, branch-free; on the 8-lane
 /// kernels nearest to 1/128 of the distance), the others stay in lane order; a full sort
 /// measured slower for shadow rays, and no order at all (lane order) 17-20 % slower on
-/// CBbunny, though 10-13 % faster on cow and bunny (RESULTS.md, sessions 5 and 7).
-/// Counting as in traverse.
+/// CBbunny, though 10-13 % faster on cow and bunny (RESULTS.md, sessions 5 and 7). Lane
+/// order only where two children are hit, or only in bottom nodes, lost 1-10 % on
+/// every mesh (session 9). Counting as in traverse.
 template <class P, TriangleTest Test, bool Count, bool HasSpheres>
 bool occlude(const WideBvh& w, const Ray& ray_in, TraceStats& stats) {
     const typename P::Node* nodes = node_array<typename P::Node>(w);
@@ -598,16 +599,19 @@ bool occlude(const WideBvh& w, const Ray& ray_in, TraceStats& stats) {
             alignas(32) float dist[kWidth];
             unsigned mask = P::test(n, box, t, dist);
             if (mask) {
-                const int i = mask & (mask - 1) ? P::nearest(dist, mask) : __builtin_ctz(mask);
+                // No branch on how many children were hit: P::nearest also finds the one
+                // lane of a one-bit mask (every hit lane's key is below the 0xFFFF of the
+                // others), and pushing an empty mask adds nothing. That branch followed
+                // the data and mispredicted: shadow rays +4.5 to +6.2 % on the course
+                // meshes without it (RESULTS.md, session 9).
+                const int i = P::nearest(dist, mask);
                 ref = n.child[i];
                 count = n.count[i];
                 mask &= ~(1u << i);
-                if (mask) {
-                    if constexpr (P::kPrefetchShadow)
-                        for (unsigned m = mask; m; m &= m - 1)
-                            prefetch_child<true, P>(nodes, blocks, n.child[__builtin_ctz(m)]);
-                    sp += P::push(n, mask, stack_ref + sp, stack_count + sp);
-                }
+                if constexpr (P::kPrefetchShadow)
+                    for (unsigned m = mask; m; m &= m - 1)
+                        prefetch_child<true, P>(nodes, blocks, n.child[__builtin_ctz(m)]);
+                sp += P::push(n, mask, stack_ref + sp, stack_count + sp);
                 continue;
             }
         }
