@@ -270,8 +270,8 @@ PT_INLINE inline Lanes tri4_wt(const Block& b, const LeafRay& r, float t_max) {
 }
 
 #ifdef __AVX__
-/// Two consecutive blocks of one leaf in one 8-lane Möller–Trumbore, for the wider
-/// kernels: the operations of tri4_mt lane for lane, so every lane's t, u, v and verdict
+/// Two consecutive blocks of one leaf (or a leaf's last block twice, the caller masking
+/// the copy) in one 8-lane Möller–Trumbore, for the wider kernels: the operations of tri4_mt lane for lane, so every lane's t, u, v and verdict
 /// are the 4-lane test's (and naive's). Leaves of more than one block are where the SAH
 /// found no split worth a node (SBVH's needle bundles; the binned SAH's leaves of 5-8):
 /// there the leaf tests dominate, ~1400 triangles per shadow ray on the sliver mesh.
@@ -438,25 +438,29 @@ bool traverse(const WideBvh& w, const Ray& ray_in, float& t_io, float& u_out, fl
                 }
 #ifdef __AVX__
                 if constexpr (Test == TriangleTest::Fast) {
-                    if (end - b >= 2) {
-                        // The second block's lanes were tested against the segment before
-                        // the first block's hits shortened it; the check below drops those
-                        // that the shortened segment excludes, as testing in turn would.
-                        // (This loop and the 4-lane one below are kept apart: one lambda
-                        // for both, capturing t, u, v by reference, measured 10-25 % slower
-                        // on the course meshes' camera and diffuse rays, session 6.)
-                        if constexpr (Count) tests += unsigned(__builtin_popcount(filled(b[1])));
-                        alignas(32) float tt[8], uu[8], vv[8];
-                        unsigned hit = tri8_mt(b[0], b[1], lr, t).store(tt, uu, vv);
-                        while (hit) {
-                            const int l = __builtin_ctz(hit);
-                            hit &= hit - 1;
-                            const Block* hb = b + (l >> 2);
-                            if (tt[l] <= t) t = tt[l], u = uu[l], v = vv[l], at = {hb, l & 3};
-                        }
-                        ++b;
-                        continue;
+                    // Two blocks per 8-lane test; a leaf's last single block is tested
+                    // twice over, its upper copy masked off. A branch on "one block or
+                    // two" followed the data and mispredicted: diffuse +1 to +5 %, camera
+                    // 0 to +2 % without it (RESULTS.md, session 9). The second block's
+                    // lanes were tested against the segment before the first block's hits
+                    // shortened it; the check below drops those that the shortened segment
+                    // excludes, as testing in turn would. (This loop and the 4-lane one
+                    // below are kept apart: one lambda for both, capturing t, u, v by
+                    // reference, measured 10-25 % slower on camera and diffuse rays,
+                    // session 6.)
+                    const bool two = end - b >= 2;
+                    const Block& b1 = two ? b[1] : b[0];
+                    if constexpr (Count) tests += two ? unsigned(__builtin_popcount(filled(b1))) : 0u;
+                    alignas(32) float tt[8], uu[8], vv[8];
+                    unsigned hit = tri8_mt(b[0], b1, lr, t).store(tt, uu, vv) & (two ? 0xFFu : 0x0Fu);
+                    while (hit) {
+                        const int l = __builtin_ctz(hit);
+                        hit &= hit - 1;
+                        const Block* hb = b + (l >> 2);
+                        if (tt[l] <= t) t = tt[l], u = uu[l], v = vv[l], at = {hb, l & 3};
                     }
+                    b += two;
+                    continue;
                 }
 #endif
                 alignas(16) float tt[4], uu[4], vv[4];
@@ -580,13 +584,13 @@ bool occlude(const WideBvh& w, const Ray& ray_in, TraceStats& stats) {
                     continue;
                 }
 #ifdef __AVX__
-                if constexpr (Test == TriangleTest::Fast) {
-                    if (end - b >= 2) {
-                        if constexpr (Count) tests += unsigned(__builtin_popcount(filled(b[1])));
-                        if (tri8_mt(b[0], b[1], lr, t).mask) return finish(true);
-                        ++b;
-                        continue;
-                    }
+                if constexpr (Test == TriangleTest::Fast) {  // as in traverse
+                    const bool two = end - b >= 2;
+                    const Block& b1 = two ? b[1] : b[0];
+                    if constexpr (Count) tests += two ? unsigned(__builtin_popcount(filled(b1))) : 0u;
+                    if (tri8_mt(b[0], b1, lr, t).mask & (two ? 0xFFu : 0x0Fu)) return finish(true);
+                    b += two;
+                    continue;
                 }
 #endif
                 if (tri4<Test>(*b, lr, t).mask) return finish(true);
