@@ -64,7 +64,13 @@ struct Node8 {
         const __m256i sel = _mm256_cmpeq_epi32(_mm256_and_si256(_mm256_set1_epi32(int(mask)), lane_bits), lane_bits);
         const __m256i keys = _mm256_blendv_epi8(_mm256_set1_epi32(0xFFFF), bits, sel);
 #endif
+#ifdef __AVX512VL__
+        // One truncating move (vpmovdw) instead of an extract and a pack: the keys fit 16
+        // bits. Shadow rays +1 to +3 % on every mesh measured (RESULTS.md, session 9).
+        const __m128i packed = _mm256_cvtepi32_epi16(keys);
+#else
         const __m128i packed = _mm_packus_epi32(_mm256_castsi256_si128(keys), _mm256_extracti128_si256(keys, 1));
+#endif
         return int(unsigned(_mm_cvtsi128_si32(_mm_minpos_epu16(packed))) >> 16 & 7u);
     }
 
