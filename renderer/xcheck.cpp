@@ -19,9 +19,9 @@ const char* verdict_name(Verdict v) {
     return "?";
 }
 
-std::vector<RayOutcome> trace_set(const accel::Accelerator& accel, const RaySet& set,
-                                  accel::TraceStats& stats, bool closest_for_shadow) {
-    std::vector<RayOutcome> out(set.rays.size());
+void trace_set_into(const accel::Accelerator& accel, const RaySet& set, accel::TraceStats& stats,
+                    std::vector<RayOutcome>& out, bool closest_for_shadow) {
+    out.resize(set.rays.size());
     accel::TraceStats proto;
     proto.counting = stats.counting;  // uncounted traces run the backend's lean path
     tbb::enumerable_thread_specific<accel::TraceStats> local(proto);
@@ -32,16 +32,24 @@ std::vector<RayOutcome> trace_set(const accel::Accelerator& accel, const RaySet&
                           for (size_t i = r.begin(); i != r.end(); ++i) {
                               RayOutcome& o = out[i];
                               if (any_hit) {
+                                  o = RayOutcome{};
                                   o.hit = accel.occluded(set.rays[i], st);
                                   continue;
                               }
                               accel::Hit h;
-                              if (accel.intersect(set.rays[i], h, st)) {
+                              if (accel.intersect(set.rays[i], h, st))
                                   o = {true, h.t, h.u, h.v, h.geom_id, h.prim_id, h.ng};
-                              }
+                              else
+                                  o = RayOutcome{};
                           }
                       });
     for (const accel::TraceStats& s : local) stats += s;
+}
+
+std::vector<RayOutcome> trace_set(const accel::Accelerator& accel, const RaySet& set,
+                                  accel::TraceStats& stats, bool closest_for_shadow) {
+    std::vector<RayOutcome> out;
+    trace_set_into(accel, set, stats, out, closest_for_shadow);
     return out;
 }
 
