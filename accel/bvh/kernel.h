@@ -271,8 +271,9 @@ PT_INLINE inline Lanes tri4_wt(const Block& b, const LeafRay& r, float t_max) {
 
 #ifdef __AVX__
 /// Two consecutive blocks of one leaf (or a leaf's last block twice, the caller masking
-/// the copy) in one 8-lane Möller–Trumbore, for the wider kernels: the operations of tri4_mt lane for lane, so every lane's t, u, v and verdict
-/// are the 4-lane test's (and naive's). Leaves of more than one block are where the SAH
+/// the copy) in one 8-lane Möller–Trumbore, for the wider kernels: the operations of
+/// tri4_mt lane for lane, so every lane's t, u, v and verdict are the 4-lane test's (and
+/// naive's). Leaves of more than one block are where the SAH
 /// found no split worth a node (SBVH's needle bundles; the binned SAH's leaves of 5-8):
 /// there the leaf tests dominate, ~1400 triangles per shadow ray on the sliver mesh.
 PT_INLINE inline Lanes8 tri8_mt(const Block& b0, const Block& b1, const LeafRay& r, float t_max) {
@@ -584,7 +585,7 @@ bool occlude(const WideBvh& w, const Ray& ray_in, TraceStats& stats) {
                     continue;
                 }
 #ifdef __AVX__
-                if constexpr (Test == TriangleTest::Fast) {  // as in traverse
+                if constexpr (Test == TriangleTest::Fast) {  // as in traverse, which says why
                     const bool two = end - b >= 2;
                     const Block& b1 = two ? b[1] : b[0];
                     if constexpr (Count) tests += two ? unsigned(__builtin_popcount(filled(b1))) : 0u;

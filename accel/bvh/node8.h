@@ -28,8 +28,8 @@ struct Node8 {
     /// The subtract-then-multiply form (not an FMA of precomputed org*inv): its
     /// roundings are what the far-distance scale (kernel.h, kFarScale) is proven for.
     /// The distances reduce as a tree, two max (min) levels instead of three in a row,
-    /// and the far scale is folded into inv_far: together 3 of the ~40 cycles from a
-    /// node's load to its child's on the course meshes (shadow and diffuse +2 to +4 %,
+    /// and the far scale is folded into inv_far: by count, about 3 of the ~40 cycles from
+    /// a node's load to its child's on the course meshes (shadow and diffuse +2 to +4 %,
     /// 5M sphere +2 to +9 %; RESULTS.md, session 9). NaN (0 * inf: a zero direction
     /// component, the origin on that plane): vmaxps/vminps return their second operand
     /// when either is NaN. The accumulator (t_min, the segment's end) is second in the
