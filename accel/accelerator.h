@@ -69,7 +69,7 @@ struct AccelOptions {
     TriangleTest triangle = TriangleTest::Fast;
     BvhSplit split = BvhSplit::Sah;
     /// Maximum primitives per leaf (custom BVH); 0 = the builder's own (default_leaf_size
-    /// in accel/bvh/build.h: 8 for sah, 12 for sbvh, 4 for midpoint).
+    /// in accel/bvh/build.h: 8 for sah, 16 for sbvh, 4 for midpoint).
     uint32_t leaf_size = 0;
     EmbreeQuality embree_quality = EmbreeQuality::High;
     bool embree_robust = false;

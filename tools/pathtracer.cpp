@@ -151,7 +151,7 @@ int main(int argc, char** argv) {
         ->check(CLI::IsMember({"naive", "custom", "embree"}));
     app.add_option("--bvh", bvh, "Custom BVH split: midpoint | sah | sbvh (SAH + spatial splits)")
         ->check(CLI::IsMember({"midpoint", "sah", "sbvh"}));
-    app.add_option("--leaf-size", ao.leaf_size, "Custom BVH: maximum primitives per leaf (default 8; 12 with --bvh=sbvh, 4 with midpoint)")
+    app.add_option("--leaf-size", ao.leaf_size, "Custom BVH: maximum primitives per leaf (default 8; 16 with --bvh=sbvh, 4 with midpoint)")
         ->check(CLI::Range(1, 255));
     app.add_option("--triangle", tri, "Triangle test: fast (Moller-Trumbore) | watertight (Woop 2013)")
         ->check(CLI::IsMember({"fast", "watertight"}));

@@ -74,10 +74,14 @@ constexpr double kSbvhBudget = 1.0;
 ///   +9 %, shadow 0 to +22 %, diffuse -4 to +11 %;
 /// - SBVH, whose meshes hold bundles of overlapping needles no split separates: on the
 ///   1000:1 sliver mesh caps 4 / 8 / 12 test the same ~1415 triangles per shadow ray but
-///   visit 104 / 63 / 49 wide nodes;
+///   visit 104 / 63 / 49 wide nodes. Cap 16 fills the AVX-512 kernel's 16-lane test
+///   (kernel.h, tri16_mt): against 12, sliver shadow rays +9 to +14 %, camera and
+///   diffuse within noise (session 10);
+/// - binned SAH: caps 12 and 16 with that test measured -14 to +5 % on the course
+///   meshes (CBbunny lost on every ray kind), so it keeps 8;
 /// - midpoint keeps 4: it makes every node of at most the cap a leaf, without a cost.
 constexpr uint32_t default_leaf_size(BvhSplit split) {
-    return split == BvhSplit::Sbvh ? 12u : split == BvhSplit::Sah ? 8u : 4u;
+    return split == BvhSplit::Sbvh ? 16u : split == BvhSplit::Sah ? 8u : 4u;
 }
 
 BinaryTree build_sbvh(std::span<const GeometryView> geometry, const std::vector<PrimRef>& refs,

@@ -166,6 +166,25 @@ struct Ops8 {
     PT_INLINE static void store(float* p, V a) { _mm256_storeu_ps(p, a); }
 };
 #endif
+#ifdef __AVX512F__
+/// 16 lanes (four blocks) for the AVX-512 kernel, comparing into mask registers (the
+/// predicates are Ops4's).
+struct Ops16 {
+    using V = __m512;
+    using M = __mmask16;
+    PT_INLINE static V add(V a, V b) { return _mm512_add_ps(a, b); }
+    PT_INLINE static V sub(V a, V b) { return _mm512_sub_ps(a, b); }
+    PT_INLINE static V mul(V a, V b) { return _mm512_mul_ps(a, b); }
+    PT_INLINE static V div(V a, V b) { return _mm512_div_ps(a, b); }
+    PT_INLINE static M land(M a, M b) { return M(a & b); }
+    PT_INLINE static V set1(float x) { return _mm512_set1_ps(x); }
+    PT_INLINE static M ne(V a, V b) { return _mm512_cmp_ps_mask(a, b, _CMP_NEQ_UQ); }
+    PT_INLINE static M ge(V a, V b) { return _mm512_cmp_ps_mask(a, b, _CMP_GE_OQ); }
+    PT_INLINE static M le(V a, V b) { return _mm512_cmp_ps_mask(a, b, _CMP_LE_OQ); }
+    PT_INLINE static unsigned mask(M a) { return unsigned(a); }
+    PT_INLINE static void store(float* p, V a) { _mm512_storeu_ps(p, a); }
+};
+#endif
 
 /// The result of one leaf test over O::V's lanes: the lanes hit in [t_min, t_max] and
 /// their t, u, v. Inlined, so an occlusion query that reads only the mask computes no
@@ -206,7 +225,7 @@ PT_INLINE inline LanesOf<O> mt_lanes(const typename O::V (&p0)[3], const typenam
     const V t = O::mul(O::add(O::add(O::mul(e2[0], qx), O::mul(e2[1], qy)), O::mul(e2[2], qz)), inv);
     const V zero = O::set1(0.0f), one = O::set1(1.0f);
     // Ordered comparisons fail on NaN, as the scalar test's do.
-    V ok = O::ne(det, zero);
+    auto ok = O::ne(det, zero);
     ok = O::land(ok, O::land(O::ge(u, zero), O::le(u, one)));
     ok = O::land(ok, O::land(O::ge(v, zero), O::le(O::add(u, v), one)));
     ok = O::land(ok, O::land(O::ge(t, t_min), O::le(t, O::set1(t_max))));
@@ -287,6 +306,39 @@ PT_INLINE inline Lanes8 tri8_mt(const Block& b0, const Block& b1, const LeafRay&
         o[a] = wide(r.o[a]), d[a] = wide(r.d[a]);
     }
     return mt_lanes<Ops8>(p0, e1, e2, o, d, wide(r.t_min), t_max);
+}
+#endif
+
+#ifdef __AVX512F__
+/// Four consecutive blocks of one leaf in one 16-lane Möller–Trumbore (lanes 4k..4k+3:
+/// block k), for the AVX-512 kernel: again tri4_mt's operations lane for lane. Leaves of
+/// three or four blocks are the SBVH's needle bundles (cap 16, build.h); there one test
+/// instead of two 8-lane ones cut the instructions per triangle, not the arithmetic
+/// (Zen 4 runs a 512-bit operation as two 256-bit halves): sliver shadow rays +14 to
+/// +23 %, diffuse up to +10 % (RESULTS.md, session 10). The binned SAH's leaves (cap 8)
+/// never reach it.
+PT_INLINE inline LanesOf<Ops16> tri16_mt(const Block& b0, const Block& b1, const Block& b2, const Block& b3,
+                                         const LeafRay& r, float t_max) {
+    const auto ld4 = [&](int k, int a) {
+        __m512 x = _mm512_castps128_ps512(_mm_load_ps(b0.p[k][a]));
+        x = _mm512_insertf32x4(x, _mm_load_ps(b1.p[k][a]), 1);
+        x = _mm512_insertf32x4(x, _mm_load_ps(b2.p[k][a]), 2);
+        return _mm512_insertf32x4(x, _mm_load_ps(b3.p[k][a]), 3);
+    };
+    const auto wide = [](__m128 x) { return _mm512_broadcast_f32x4(x); };
+    __m512 p0[3], e1[3], e2[3], o[3], d[3];
+    for (int a = 0; a < 3; ++a) {
+        p0[a] = ld4(0, a), e1[a] = ld4(1, a), e2[a] = ld4(2, a);
+        o[a] = wide(r.o[a]), d[a] = wide(r.d[a]);
+    }
+    return mt_lanes<Ops16>(p0, e1, e2, o, d, wide(r.t_min), t_max);
+}
+
+/// Filled lanes of b[1], b[2] and, if `four`, b3 = b[3]: what a 16-lane test adds to the
+/// count beyond b[0], which the leaf loop counts itself.
+PT_INLINE inline unsigned filled_after_first(const Block* b, const Block& b3, bool four) {
+    return unsigned(__builtin_popcount(filled(b[1])) + __builtin_popcount(filled(b[2]))) +
+           (four ? unsigned(__builtin_popcount(filled(b3))) : 0u);
 }
 #endif
 
@@ -449,6 +501,24 @@ bool traverse(const WideBvh& w, const Ray& ray_in, float& t_io, float& u_out, fl
                     // below are kept apart: one lambda for both, capturing t, u, v by
                     // reference, measured 10-25 % slower on camera and diffuse rays,
                     // session 6.)
+#ifdef __AVX512F__
+                    // Three or four blocks (SBVH leaves of 9-16): one 16-lane test, the
+                    // third block standing in for a missing fourth, masked off.
+                    if (end - b >= 3) {
+                        const bool four = end - b >= 4;
+                        const Block& b3 = four ? b[3] : b[2];
+                        if constexpr (Count) tests += filled_after_first(b, b3, four);
+                        alignas(64) float tt[16], uu[16], vv[16];
+                        unsigned hit = tri16_mt(b[0], b[1], b[2], b3, lr, t).store(tt, uu, vv) & (four ? 0xFFFFu : 0x0FFFu);
+                        while (hit) {
+                            const int l = __builtin_ctz(hit);
+                            hit &= hit - 1;
+                            if (tt[l] <= t) t = tt[l], u = uu[l], v = vv[l], at = {b + (l >> 2), l & 3};
+                        }
+                        b += 2 + four;
+                        continue;
+                    }
+#endif
                     const bool two = end - b >= 2;
                     const Block& b1 = two ? b[1] : b[0];
                     if constexpr (Count) tests += two ? unsigned(__builtin_popcount(filled(b1))) : 0u;
@@ -586,6 +656,16 @@ bool occlude(const WideBvh& w, const Ray& ray_in, TraceStats& stats) {
                 }
 #ifdef __AVX__
                 if constexpr (Test == TriangleTest::Fast) {  // as in traverse, which says why
+#ifdef __AVX512F__
+                    if (end - b >= 3) {
+                        const bool four = end - b >= 4;
+                        const Block& b3 = four ? b[3] : b[2];
+                        if constexpr (Count) tests += filled_after_first(b, b3, four);
+                        if (tri16_mt(b[0], b[1], b[2], b3, lr, t).mask & (four ? 0xFFFFu : 0x0FFFu)) return finish(true);
+                        b += 2 + four;
+                        continue;
+                    }
+#endif
                     const bool two = end - b >= 2;
                     const Block& b1 = two ? b[1] : b[0];
                     if constexpr (Count) tests += two ? unsigned(__builtin_popcount(filled(b1))) : 0u;

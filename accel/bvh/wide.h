@@ -39,7 +39,7 @@ struct alignas(64) WideNode {
     static constexpr uint32_t kSpheres = 0x80000000u;  ///< in count: the blocks hold spheres
     static constexpr uint32_t kHintShift = 24;
     static constexpr uint32_t kHintBlocks = 1u << kHintShift;  ///< first block below this (64M triangles)
-    static constexpr uint32_t kHintMaxBlocks = 24;             ///< 8 leaves of up to 12 primitives (sbvh)
+    static constexpr uint32_t kHintMaxBlocks = 32;             ///< 8 leaves of up to 16 primitives (sbvh)
 
     /// The count of an interior lane whose child, a bottom node, has blocks [first, first + n).
     static uint32_t leaves_hint(uint32_t first, uint32_t n) {

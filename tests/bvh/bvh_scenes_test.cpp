@@ -120,7 +120,7 @@ TEST_P(BvhScenes, InvariantsAndSahBeatsMidpoint) {
         for (const std::string& e : rep->errors) ADD_FAILURE() << e;
         EXPECT_TRUE(rep->ok());
         EXPECT_LE(rep->max_leaf_size, bvh::default_leaf_size(split));
-        EXPECT_EQ(rep->leaf_size_limit, split == BvhSplit::Sbvh ? 12u : split == BvhSplit::Sah ? 8u : 4u);
+        EXPECT_EQ(rep->leaf_size_limit, split == BvhSplit::Sbvh ? 16u : split == BvhSplit::Sah ? 8u : 4u);
         EXPECT_EQ(rep->primitives, a->info().primitives);
         EXPECT_EQ(a->info().primitives + a->info().dropped, l->scene.num_triangles() + l->scene.spheres.size());
         EXPECT_DOUBLE_EQ(rep->sah_cost, a->info().sah_cost);

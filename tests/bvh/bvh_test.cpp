@@ -221,6 +221,15 @@ struct Compare {
             return;
         }
         ++hits;
+        // The segment that stops short of naive's closest hit: nothing lies on it, so an
+        // any-hit query that ignores t_max is caught here (every ray above is unbounded,
+        // where any triangle the ray meets is a right answer).
+        Ray seg = ray;
+        seg.t_max = a.t * 0.999f;
+        if (seg.t_max > seg.t_min && ref.occluded(seg, s1) != bvh.occluded(seg, s2)) {
+            if (++mismatches < 5) ADD_FAILURE() << "occlusion of the segment before the hit differs for " << where();
+            return;
+        }
         EXPECT_GE(b.t, ray.t_min) << where();
         EXPECT_LE(b.t, ray.t_max) << where();
         if (a.geom_id == b.geom_id && a.prim_id == b.prim_id) {
@@ -537,7 +546,7 @@ TEST(BvhSbvh, SliversAreSplitWithinTheBudgetAndCovered) {
 }
 
 TEST(BvhSbvh, DefaultLeafCapVisitsFewerNodesOnSlivers) {
-    // leaf_size 0 = the builder's cap (12 for sbvh): bundles of needles no split
+    // leaf_size 0 = the builder's cap (16 for sbvh): bundles of needles no split
     // separates become leaves instead of chains of nodes every ray through them visits.
     // Watertight: with the fast test, a hit's t on these needles can be off by more than
     // the box test's slack, and which such hit a tree finds depends on its boxes (see
@@ -634,14 +643,19 @@ TEST(BvhCollapse, PlanCostsLessThanTheGreedyCollapse) {
 }
 
 TEST(BvhAgreement, LeavesOfSeveralBlocks) {
-    // A leaf cap of 12 gives leaves of 2-3 blocks, which the AVX2 and AVX-512 kernels'
-    // any-hit query tests two at a time (tri8_mt_mask); every kernel must still answer as
-    // naive does, in both modes.
+    // Leaf caps of 12 and 16 give leaves of 1-4 blocks: the AVX2 kernel tests them two at
+    // a time (tri8_mt), the AVX-512 kernel three or four at once (tri16_mt, a missing
+    // fourth masked off); every kernel must still answer as naive does, in both modes.
     Mesh m = soup(1500, 0.08f, 5);
     GeometryView v = m.view();
-    auto probe = make_bvh({&v, 1}, options(BvhSplit::Sah, TriangleTest::Fast, 12));
-    ASSERT_GT(inspect_bvh(*probe)->max_leaf_size, 4u);
-    agree({&v, 1}, mesh_targets(m, 200), 31, 300, true, 12);
+    for (uint32_t cap : {12u, 16u}) {
+        SCOPED_TRACE("leaf cap " + std::to_string(cap));
+        // The midpoint split makes every node of at most the cap a leaf (the SAH splits
+        // this soup's leaves down to 8), so agree() meets leaves of cap / 4 blocks there.
+        auto probe = make_bvh({&v, 1}, options(BvhSplit::Midpoint, TriangleTest::Fast, cap));
+        ASSERT_GT(inspect_bvh(*probe)->max_leaf_size, cap - 4);
+        agree({&v, 1}, mesh_targets(m, 200), 31, 300, true, cap);
+    }
 }
 
 TEST(BvhSbvh, SliversAgreeWithNaive) {
