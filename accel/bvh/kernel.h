@@ -143,6 +143,12 @@ struct Ops4 {
     PT_INLINE static V mul(V a, V b) { return _mm_mul_ps(a, b); }
     PT_INLINE static V div(V a, V b) { return _mm_div_ps(a, b); }
     PT_INLINE static V land(V a, V b) { return _mm_and_ps(a, b); }
+    PT_INLINE static V lor(V a, V b) { return _mm_or_ps(a, b); }
+    PT_INLINE static V andnot(V a, V b) { return _mm_andnot_ps(a, b); }
+    PT_INLINE static V eq(V a, V b) { return _mm_cmpeq_ps(a, b); }
+    PT_INLINE static V lt(V a, V b) { return _mm_cmplt_ps(a, b); }
+    PT_INLINE static V gt(V a, V b) { return _mm_cmpgt_ps(a, b); }
+    PT_INLINE static V load(const float* p) { return _mm_loadu_ps(p); }
     PT_INLINE static V set1(float x) { return _mm_set1_ps(x); }
     PT_INLINE static V ne(V a, V b) { return _mm_cmpneq_ps(a, b); }
     PT_INLINE static V ge(V a, V b) { return _mm_cmpge_ps(a, b); }
@@ -158,6 +164,12 @@ struct Ops8 {
     PT_INLINE static V mul(V a, V b) { return _mm256_mul_ps(a, b); }
     PT_INLINE static V div(V a, V b) { return _mm256_div_ps(a, b); }
     PT_INLINE static V land(V a, V b) { return _mm256_and_ps(a, b); }
+    PT_INLINE static V lor(V a, V b) { return _mm256_or_ps(a, b); }
+    PT_INLINE static V andnot(V a, V b) { return _mm256_andnot_ps(a, b); }
+    PT_INLINE static V eq(V a, V b) { return _mm256_cmp_ps(a, b, _CMP_EQ_OQ); }
+    PT_INLINE static V lt(V a, V b) { return _mm256_cmp_ps(a, b, _CMP_LT_OQ); }
+    PT_INLINE static V gt(V a, V b) { return _mm256_cmp_ps(a, b, _CMP_GT_OQ); }
+    PT_INLINE static V load(const float* p) { return _mm256_loadu_ps(p); }
     PT_INLINE static V set1(float x) { return _mm256_set1_ps(x); }
     PT_INLINE static V ne(V a, V b) { return _mm256_cmp_ps(a, b, _CMP_NEQ_UQ); }
     PT_INLINE static V ge(V a, V b) { return _mm256_cmp_ps(a, b, _CMP_GE_OQ); }
@@ -242,50 +254,60 @@ PT_INLINE inline Lanes tri4_mt(const Block& b, const LeafRay& r, float t_max) {
     return mt_lanes<Ops4>(p0, e1, e2, r.o, r.d, r.t_min, t_max);
 }
 
-/// Woop 2013 on four triangles; the same operations as intersect_triangle_wt, including
-/// its double-precision retry of an edge function that rounds to exactly zero (done per
-/// lane, only for the rare lanes that need it).
-PT_INLINE inline Lanes tri4_wt(const Block& b, const LeafRay& r, float t_max) {
-    __m128 X[3], Y[3], Z[3];
+/// Woop's test over O::V's lanes on vertex rows v[vertex][axis] (the scene's own
+/// vertices); `live` = the lanes that hold a triangle.
+template <class O>
+PT_INLINE inline LanesOf<O> wt_lanes(const typename O::V (&v)[3][3], const typename O::V (&o)[3],
+                                     typename O::V sx, typename O::V sy, typename O::V sz,
+                                     typename O::V t_min, const LeafRay& r, unsigned live, float t_max) {
+    using V = typename O::V;
+    constexpr int kN = int(sizeof(V) / sizeof(float));
+    V X[3], Y[3], Z[3];
     for (int k = 0; k < 3; ++k) {
-        const __m128 ax = _mm_sub_ps(ld(b.p[k][r.kx]), r.o[r.kx]);
-        const __m128 ay = _mm_sub_ps(ld(b.p[k][r.ky]), r.o[r.ky]);
-        const __m128 az = _mm_sub_ps(ld(b.p[k][r.kz]), r.o[r.kz]);
-        X[k] = _mm_sub_ps(ax, _mm_mul_ps(r.sx, az));
-        Y[k] = _mm_sub_ps(ay, _mm_mul_ps(r.sy, az));
+        const V ax = O::sub(v[k][r.kx], o[r.kx]);
+        const V ay = O::sub(v[k][r.ky], o[r.ky]);
+        const V az = O::sub(v[k][r.kz], o[r.kz]);
+        X[k] = O::sub(ax, O::mul(sx, az));
+        Y[k] = O::sub(ay, O::mul(sy, az));
         Z[k] = az;
     }
     // A = vertex 0, B = vertex 1, C = vertex 2.
-    __m128 U = _mm_sub_ps(_mm_mul_ps(X[2], Y[1]), _mm_mul_ps(Y[2], X[1]));
-    __m128 V = _mm_sub_ps(_mm_mul_ps(X[0], Y[2]), _mm_mul_ps(Y[0], X[2]));
-    __m128 W = _mm_sub_ps(_mm_mul_ps(X[1], Y[0]), _mm_mul_ps(Y[1], X[0]));
-    const __m128 zero = _mm_setzero_ps();
-    const unsigned live = filled(b);
-    const unsigned zeros = unsigned(_mm_movemask_ps(_mm_or_ps(
-                               _mm_or_ps(_mm_cmpeq_ps(U, zero), _mm_cmpeq_ps(V, zero)), _mm_cmpeq_ps(W, zero)))) &
-                           live;
+    V U = O::sub(O::mul(X[2], Y[1]), O::mul(Y[2], X[1]));
+    V W0 = O::sub(O::mul(X[0], Y[2]), O::mul(Y[0], X[2]));
+    V W = O::sub(O::mul(X[1], Y[0]), O::mul(Y[1], X[0]));
+    const V zero = O::set1(0.0f);
+    const unsigned zeros = O::mask(O::lor(O::lor(O::eq(U, zero), O::eq(W0, zero)), O::eq(W, zero))) & live;
     if (zeros) {
-        alignas(16) float x[3][4], y[3][4], fu[4], fv[4], fw[4];
-        for (int k = 0; k < 3; ++k) _mm_store_ps(x[k], X[k]), _mm_store_ps(y[k], Y[k]);
-        _mm_store_ps(fu, U), _mm_store_ps(fv, V), _mm_store_ps(fw, W);
-        for (int l = 0; l < 4; ++l) {
+        alignas(32) float x[3][kN], y[3][kN], fu[kN], fv[kN], fw[kN];
+        for (int k = 0; k < 3; ++k) O::store(x[k], X[k]), O::store(y[k], Y[k]);
+        O::store(fu, U), O::store(fv, W0), O::store(fw, W);
+        for (int l = 0; l < kN; ++l) {
             if (!(zeros >> l & 1)) continue;
             fu[l] = float(double(x[2][l]) * double(y[1][l]) - double(y[2][l]) * double(x[1][l]));
             fv[l] = float(double(x[0][l]) * double(y[2][l]) - double(y[0][l]) * double(x[2][l]));
             fw[l] = float(double(x[1][l]) * double(y[0][l]) - double(y[1][l]) * double(x[0][l]));
         }
-        U = _mm_load_ps(fu), V = _mm_load_ps(fv), W = _mm_load_ps(fw);
+        U = O::load(fu), W0 = O::load(fv), W = O::load(fw);
     }
-    const __m128 neg = _mm_or_ps(_mm_or_ps(_mm_cmplt_ps(U, zero), _mm_cmplt_ps(V, zero)), _mm_cmplt_ps(W, zero));
-    const __m128 pos = _mm_or_ps(_mm_or_ps(_mm_cmpgt_ps(U, zero), _mm_cmpgt_ps(V, zero)), _mm_cmpgt_ps(W, zero));
-    const __m128 det = _mm_add_ps(_mm_add_ps(U, V), W);
-    const __m128 T = _mm_add_ps(_mm_add_ps(_mm_mul_ps(U, _mm_mul_ps(r.sz, Z[0])), _mm_mul_ps(V, _mm_mul_ps(r.sz, Z[1]))),
-                                _mm_mul_ps(W, _mm_mul_ps(r.sz, Z[2])));
-    const __m128 inv = _mm_div_ps(_mm_set1_ps(1.0f), det);
-    const __m128 t = _mm_mul_ps(T, inv);
-    __m128 ok = _mm_andnot_ps(_mm_and_ps(neg, pos), _mm_cmpneq_ps(det, zero));
-    ok = _mm_and_ps(ok, _mm_and_ps(_mm_cmpge_ps(t, r.t_min), _mm_cmple_ps(t, _mm_set1_ps(t_max))));
-    return {unsigned(_mm_movemask_ps(ok)) & live, t, _mm_mul_ps(V, inv), _mm_mul_ps(W, inv)};
+    const V neg = O::lor(O::lor(O::lt(U, zero), O::lt(W0, zero)), O::lt(W, zero));
+    const V pos = O::lor(O::lor(O::gt(U, zero), O::gt(W0, zero)), O::gt(W, zero));
+    const V det = O::add(O::add(U, W0), W);
+    const V T = O::add(O::add(O::mul(U, O::mul(sz, Z[0])), O::mul(W0, O::mul(sz, Z[1]))), O::mul(W, O::mul(sz, Z[2])));
+    const V inv = O::div(O::set1(1.0f), det);
+    const V t = O::mul(T, inv);
+    V ok = O::andnot(O::land(neg, pos), O::ne(det, zero));
+    ok = O::land(ok, O::land(O::ge(t, t_min), O::le(t, O::set1(t_max))));
+    return {O::mask(ok) & live, t, O::mul(W0, inv), O::mul(W, inv)};
+}
+
+/// Woop 2013 on four triangles; the same operations as intersect_triangle_wt, including
+/// its double-precision retry of an edge function that rounds to exactly zero (done per
+/// lane, only for the rare lanes that need it).
+PT_INLINE inline Lanes tri4_wt(const Block& b, const LeafRay& r, float t_max) {
+    __m128 v[3][3];
+    for (int k = 0; k < 3; ++k)
+        for (int a = 0; a < 3; ++a) v[k][a] = ld(b.p[k][a]);
+    return wt_lanes<Ops4>(v, r.o, r.sx, r.sy, r.sz, r.t_min, r, filled(b), t_max);
 }
 
 #ifdef __AVX__
@@ -307,6 +329,25 @@ PT_INLINE inline Lanes8 tri8_mt(const Block& b0, const Block& b1, const LeafRay&
     }
     return mt_lanes<Ops8>(p0, e1, e2, o, d, wide(r.t_min), t_max);
 }
+
+/// Woop's test on two blocks (or one twice, the caller masking the copy), as tri8_mt:
+/// tri4_wt's operations lane for lane, the double-precision retry included, so the
+/// watertight guarantee and naive's bits hold at this width too. Against one block at a
+/// time with a branch on its hits: shadow rays +17 to +22 %, diffuse +2 to +11 % on the
+/// course meshes (RESULTS.md, session 10).
+PT_INLINE inline Lanes8 tri8_wt(const Block& b0, const Block& b1, const LeafRay& r, float t_max) {
+    const auto ld2 = [](const float* lo, const float* hi) {
+        return _mm256_insertf128_ps(_mm256_castps128_ps256(_mm_load_ps(lo)), _mm_load_ps(hi), 1);
+    };
+    const auto wide = [](__m128 x) { return _mm256_insertf128_ps(_mm256_castps128_ps256(x), x, 1); };
+    __m256 v[3][3], o[3];
+    for (int a = 0; a < 3; ++a) {
+        for (int k = 0; k < 3; ++k) v[k][a] = ld2(b0.p[k][a], b1.p[k][a]);
+        o[a] = wide(r.o[a]);
+    }
+    return wt_lanes<Ops8>(v, o, wide(r.sx), wide(r.sy), wide(r.sz), wide(r.t_min), r,
+                          filled(b0) | filled(b1) << 4, t_max);
+}
 #endif
 
 #ifdef __AVX512F__
@@ -325,7 +366,9 @@ PT_INLINE inline LanesOf<Ops16> tri16_mt(const Block& b0, const Block& b1, const
         x = _mm512_insertf32x4(x, _mm_load_ps(b2.p[k][a]), 2);
         return _mm512_insertf32x4(x, _mm_load_ps(b3.p[k][a]), 3);
     };
-    const auto wide = [](__m128 x) { return _mm512_broadcast_f32x4(x); };
+    // The ray's rows are splats: any lane will do (and _mm512_broadcast_f32x4 draws a
+    // false "may be used uninitialized" from GCC 12's own header).
+    const auto wide = [](__m128 x) { return _mm512_set1_ps(_mm_cvtss_f32(x)); };
     __m512 p0[3], e1[3], e2[3], o[3], d[3];
     for (int a = 0; a < 3; ++a) {
         p0[a] = ld4(0, a), e1[a] = ld4(1, a), e2[a] = ld4(2, a);
@@ -347,6 +390,13 @@ PT_INLINE inline Lanes tri4(const Block& b, const LeafRay& r, float t_max) {
     if constexpr (Test == TriangleTest::Watertight) return tri4_wt(b, r, t_max);
     return tri4_mt(b, r, t_max);
 }
+#ifdef __AVX__
+template <TriangleTest Test>
+PT_INLINE inline Lanes8 tri8(const Block& b0, const Block& b1, const LeafRay& r, float t_max) {
+    if constexpr (Test == TriangleTest::Watertight) return tri8_wt(b0, b1, r, t_max);
+    return tri8_mt(b0, b1, r, t_max);
+}
+#endif
 
 /// Sphere in lane l of a sphere block (centre in p[0], radius in p[1][0]) hit in
 /// [ray.t_min, t]; its distance in ts.
@@ -490,8 +540,9 @@ bool traverse(const WideBvh& w, const Ray& ray_in, float& t_io, float& u_out, fl
                     continue;
                 }
 #ifdef __AVX__
-                if constexpr (Test == TriangleTest::Fast) {
-                    // Two blocks per 8-lane test; a leaf's last single block is tested
+                {
+                    // Two blocks per 8-lane test (Möller–Trumbore or Woop), both modes;
+                    // a leaf's last single block is tested
                     // twice over, its upper copy masked off. A branch on "one block or
                     // two" followed the data and mispredicted: diffuse +1 to +5 %, camera
                     // 0 to +2 % without it (RESULTS.md, session 9). The second block's
@@ -502,9 +553,9 @@ bool traverse(const WideBvh& w, const Ray& ray_in, float& t_io, float& u_out, fl
                     // reference, measured 10-25 % slower on camera and diffuse rays,
                     // session 6.)
 #ifdef __AVX512F__
-                    // Three or four blocks (SBVH leaves of 9-16): one 16-lane test, the
-                    // third block standing in for a missing fourth, masked off.
-                    if (end - b >= 3) {
+                    // Three or four blocks (SBVH leaves of 9-16), fast mode: one 16-lane
+                    // test, the third block standing in for a missing fourth, masked off.
+                    if (Test == TriangleTest::Fast && end - b >= 3) {
                         const bool four = end - b >= 4;
                         const Block& b3 = four ? b[3] : b[2];
                         if constexpr (Count) tests += filled_after_first(b, b3, four);
@@ -523,7 +574,7 @@ bool traverse(const WideBvh& w, const Ray& ray_in, float& t_io, float& u_out, fl
                     const Block& b1 = two ? b[1] : b[0];
                     if constexpr (Count) tests += two ? unsigned(__builtin_popcount(filled(b1))) : 0u;
                     alignas(32) float tt[8], uu[8], vv[8];
-                    unsigned hit = tri8_mt(b[0], b1, lr, t).store(tt, uu, vv) & (two ? 0xFFu : 0x0Fu);
+                    unsigned hit = tri8<Test>(b[0], b1, lr, t).store(tt, uu, vv) & (two ? 0xFFu : 0x0Fu);
                     while (hit) {
                         const int l = __builtin_ctz(hit);
                         hit &= hit - 1;
@@ -655,9 +706,9 @@ bool occlude(const WideBvh& w, const Ray& ray_in, TraceStats& stats) {
                     continue;
                 }
 #ifdef __AVX__
-                if constexpr (Test == TriangleTest::Fast) {  // as in traverse, which says why
+                {  // as in traverse, which says why
 #ifdef __AVX512F__
-                    if (end - b >= 3) {
+                    if (Test == TriangleTest::Fast && end - b >= 3) {
                         const bool four = end - b >= 4;
                         const Block& b3 = four ? b[3] : b[2];
                         if constexpr (Count) tests += filled_after_first(b, b3, four);
@@ -669,7 +720,7 @@ bool occlude(const WideBvh& w, const Ray& ray_in, TraceStats& stats) {
                     const bool two = end - b >= 2;
                     const Block& b1 = two ? b[1] : b[0];
                     if constexpr (Count) tests += two ? unsigned(__builtin_popcount(filled(b1))) : 0u;
-                    if (tri8_mt(b[0], b1, lr, t).mask & (two ? 0xFFu : 0x0Fu)) return finish(true);
+                    if (tri8<Test>(b[0], b1, lr, t).mask & (two ? 0xFFu : 0x0Fu)) return finish(true);
                     b += two;
                     continue;
                 }
