@@ -254,19 +254,21 @@ PT_INLINE inline Lanes tri4_mt(const Block& b, const LeafRay& r, float t_max) {
     return mt_lanes<Ops4>(p0, e1, e2, r.o, r.d, r.t_min, t_max);
 }
 
-/// Woop's test over O::V's lanes on vertex rows v[vertex][axis] (the scene's own
-/// vertices); `live` = the lanes that hold a triangle.
-template <class O>
-PT_INLINE inline LanesOf<O> wt_lanes(const typename O::V (&v)[3][3], const typename O::V (&o)[3],
-                                     typename O::V sx, typename O::V sy, typename O::V sz,
-                                     typename O::V t_min, const LeafRay& r, unsigned live, float t_max) {
+/// Woop's test over O::V's lanes; `row(k, a)` loads vertex k's axis-a row of the
+/// scene's own vertices straight from the blocks (rows gathered into an array first and
+/// then indexed by the ray's axes would go through the stack); o = the origin's rows in
+/// the ray's kx, ky, kz order; `live` = the lanes that hold a triangle.
+template <class O, class Row>
+PT_INLINE inline LanesOf<O> wt_lanes(const Row& row, const typename O::V (&o)[3], typename O::V sx,
+                                     typename O::V sy, typename O::V sz, typename O::V t_min, const LeafRay& r,
+                                     unsigned live, float t_max) {
     using V = typename O::V;
     constexpr int kN = int(sizeof(V) / sizeof(float));
     V X[3], Y[3], Z[3];
     for (int k = 0; k < 3; ++k) {
-        const V ax = O::sub(v[k][r.kx], o[r.kx]);
-        const V ay = O::sub(v[k][r.ky], o[r.ky]);
-        const V az = O::sub(v[k][r.kz], o[r.kz]);
+        const V ax = O::sub(row(k, r.kx), o[0]);
+        const V ay = O::sub(row(k, r.ky), o[1]);
+        const V az = O::sub(row(k, r.kz), o[2]);
         X[k] = O::sub(ax, O::mul(sx, az));
         Y[k] = O::sub(ay, O::mul(sy, az));
         Z[k] = az;
@@ -304,10 +306,9 @@ PT_INLINE inline LanesOf<O> wt_lanes(const typename O::V (&v)[3][3], const typen
 /// its double-precision retry of an edge function that rounds to exactly zero (done per
 /// lane, only for the rare lanes that need it).
 PT_INLINE inline Lanes tri4_wt(const Block& b, const LeafRay& r, float t_max) {
-    __m128 v[3][3];
-    for (int k = 0; k < 3; ++k)
-        for (int a = 0; a < 3; ++a) v[k][a] = ld(b.p[k][a]);
-    return wt_lanes<Ops4>(v, r.o, r.sx, r.sy, r.sz, r.t_min, r, filled(b), t_max);
+    const __m128 o[3] = {r.o[r.kx], r.o[r.ky], r.o[r.kz]};
+    return wt_lanes<Ops4>([&](int k, int a) { return ld(b.p[k][a]); }, o, r.sx, r.sy, r.sz, r.t_min, r, filled(b),
+                          t_max);
 }
 
 #ifdef __AVX__
@@ -340,24 +341,21 @@ PT_INLINE inline Lanes8 tri8_wt(const Block& b0, const Block& b1, const LeafRay&
         return _mm256_insertf128_ps(_mm256_castps128_ps256(_mm_load_ps(lo)), _mm_load_ps(hi), 1);
     };
     const auto wide = [](__m128 x) { return _mm256_insertf128_ps(_mm256_castps128_ps256(x), x, 1); };
-    __m256 v[3][3], o[3];
-    for (int a = 0; a < 3; ++a) {
-        for (int k = 0; k < 3; ++k) v[k][a] = ld2(b0.p[k][a], b1.p[k][a]);
-        o[a] = wide(r.o[a]);
-    }
-    return wt_lanes<Ops8>(v, o, wide(r.sx), wide(r.sy), wide(r.sz), wide(r.t_min), r,
-                          filled(b0) | filled(b1) << 4, t_max);
+    const __m256 o[3] = {wide(r.o[r.kx]), wide(r.o[r.ky]), wide(r.o[r.kz])};
+    return wt_lanes<Ops8>([&](int k, int a) { return ld2(b0.p[k][a], b1.p[k][a]); }, o, wide(r.sx), wide(r.sy),
+                          wide(r.sz), wide(r.t_min), r, filled(b0) | filled(b1) << 4, t_max);
 }
 #endif
 
 #ifdef __AVX512F__
 /// Four consecutive blocks of one leaf in one 16-lane Möller–Trumbore (lanes 4k..4k+3:
-/// block k), for the AVX-512 kernel: again tri4_mt's operations lane for lane. Leaves of
-/// three or four blocks are the SBVH's needle bundles (cap 16, build.h); there one test
-/// instead of two 8-lane ones cut the instructions per triangle, not the arithmetic
-/// (Zen 4 runs a 512-bit operation as two 256-bit halves): sliver shadow rays +14 to
-/// +23 %, diffuse up to +10 % (RESULTS.md, session 10). The binned SAH's leaves (cap 8)
-/// never reach it.
+/// block k), for the AVX-512 kernel's any-hit query: again tri4_mt's operations lane for
+/// lane. Leaves of three or four blocks are the SBVH's needle bundles (cap 16, build.h);
+/// there one test instead of two 8-lane ones cut the instructions per triangle, not the
+/// arithmetic (Zen 4 runs a 512-bit operation as two 256-bit halves): sliver shadow rays
+/// +14 to +23 % (RESULTS.md, session 10). The binned SAH's leaves (cap 8) never reach it.
+/// In the closest-hit loop it gave sliver diffuse rays +10 % but cost the course meshes'
+/// camera rays 2-6 %, which never take it, so traverse keeps the 8-lane test.
 PT_INLINE inline LanesOf<Ops16> tri16_mt(const Block& b0, const Block& b1, const Block& b2, const Block& b3,
                                          const LeafRay& r, float t_max) {
     const auto ld4 = [&](int k, int a) {
@@ -377,12 +375,6 @@ PT_INLINE inline LanesOf<Ops16> tri16_mt(const Block& b0, const Block& b1, const
     return mt_lanes<Ops16>(p0, e1, e2, o, d, wide(r.t_min), t_max);
 }
 
-/// Filled lanes of b[1], b[2] and, if `four`, b3 = b[3]: what a 16-lane test adds to the
-/// count beyond b[0], which the leaf loop counts itself.
-PT_INLINE inline unsigned filled_after_first(const Block* b, const Block& b3, bool four) {
-    return unsigned(__builtin_popcount(filled(b[1])) + __builtin_popcount(filled(b[2]))) +
-           (four ? unsigned(__builtin_popcount(filled(b3))) : 0u);
-}
 #endif
 
 template <TriangleTest Test>
@@ -552,24 +544,6 @@ bool traverse(const WideBvh& w, const Ray& ray_in, float& t_io, float& u_out, fl
                     // below are kept apart: one lambda for both, capturing t, u, v by
                     // reference, measured 10-25 % slower on camera and diffuse rays,
                     // session 6.)
-#ifdef __AVX512F__
-                    // Three or four blocks (SBVH leaves of 9-16), fast mode: one 16-lane
-                    // test, the third block standing in for a missing fourth, masked off.
-                    if (Test == TriangleTest::Fast && end - b >= 3) {
-                        const bool four = end - b >= 4;
-                        const Block& b3 = four ? b[3] : b[2];
-                        if constexpr (Count) tests += filled_after_first(b, b3, four);
-                        alignas(64) float tt[16], uu[16], vv[16];
-                        unsigned hit = tri16_mt(b[0], b[1], b[2], b3, lr, t).store(tt, uu, vv) & (four ? 0xFFFFu : 0x0FFFu);
-                        while (hit) {
-                            const int l = __builtin_ctz(hit);
-                            hit &= hit - 1;
-                            if (tt[l] <= t) t = tt[l], u = uu[l], v = vv[l], at = {b + (l >> 2), l & 3};
-                        }
-                        b += 2 + four;
-                        continue;
-                    }
-#endif
                     const bool two = end - b >= 2;
                     const Block& b1 = two ? b[1] : b[0];
                     if constexpr (Count) tests += two ? unsigned(__builtin_popcount(filled(b1))) : 0u;
@@ -708,10 +682,14 @@ bool occlude(const WideBvh& w, const Ray& ray_in, TraceStats& stats) {
 #ifdef __AVX__
                 {  // as in traverse, which says why
 #ifdef __AVX512F__
+                    // Three or four blocks (SBVH leaves of 9-16), fast mode: one 16-lane
+                    // test, the third block standing in for a missing fourth, masked off.
                     if (Test == TriangleTest::Fast && end - b >= 3) {
                         const bool four = end - b >= 4;
                         const Block& b3 = four ? b[3] : b[2];
-                        if constexpr (Count) tests += filled_after_first(b, b3, four);
+                        if constexpr (Count)
+                            tests += unsigned(__builtin_popcount(filled(b[1])) + __builtin_popcount(filled(b[2]))) +
+                                     (four ? unsigned(__builtin_popcount(filled(b3))) : 0u);
                         if (tri16_mt(b[0], b[1], b[2], b3, lr, t).mask & (four ? 0xFFFFu : 0x0FFFu)) return finish(true);
                         b += 2 + four;
                         continue;
