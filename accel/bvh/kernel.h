@@ -9,8 +9,9 @@
 // Intersection Algorithm"), made conservative by scaling the far distance (Ize 2013,
 // "Robust BVH Ray Traversal", JCGT 2(2)); ordered traversal of wide nodes with a no-stack
 // path for one hit child and stack entries beyond the closest hit dropped on pop (Wald et
-// al. 2008, "Getting Rid of Packets"); leaf blocks tested four at a time by Möller–Trumbore
-// 1997 or the watertight test of Woop, Benthin, Wald 2013 (JCGT 2(1)).
+// al. 2008, "Getting Rid of Packets"); leaf blocks of four triangles tested by Möller–
+// Trumbore 1997 or the watertight test of Woop, Benthin, Wald 2013 (JCGT 2(1)), one block
+// per SSE test, two per AVX test, up to four per AVX-512 any-hit test.
 #pragma once
 
 #ifndef PT_KERNEL_NS

@@ -1,5 +1,6 @@
 // The AVX-512 kernel (F + VL + DQ + BW): the same 8-lane node test, compared into a mask
-// register. Compiled with -mavx512f -mavx512vl -mavx512dq -mavx512bw -mfma -ffp-contract=off
+// register, and any-hit leaves of three or four blocks in one 16-lane test (kernel.h,
+// tri16_mt). Compiled with -mavx512f -mavx512vl -mavx512dq -mavx512bw -mfma -ffp-contract=off
 // (accel/CMakeLists.txt); auto picks it wherever the CPU has it (dispatch.cpp says why).
 #define PT_KERNEL_NS avx512
 #include <immintrin.h>
