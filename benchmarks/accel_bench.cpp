@@ -2,11 +2,14 @@
 // each row with its ratio to Embree measured side by side in the same run.
 #include <CLI/CLI.hpp>
 #include <fmt/format.h>
+#include <tbb/parallel_for.h>
 #include <tbb/task_arena.h>
 
+#include "benchmarks/machine_probe.h"
 #include "benchmarks/pin.h"
 
 #include <algorithm>
+#include <atomic>
 #include <chrono>
 #include <cstdio>
 #include <filesystem>
@@ -44,7 +47,19 @@ struct Row {
     uint64_t bytes;
     bool counts_prims, counts_nodes;
     double cpu_util = 0;  ///< process CPU seconds / wall seconds while tracing
+    /// Rows of several threads: the machine's own scaling beside them (MachineProbe,
+    /// median over rounds), the rounds in which it reached 0.9 x threads, and this
+    /// backend's scaling over 1 thread in those rounds alone (0 if none).
+    double machine = 0;
+    int full_rounds = 0;
+    double scaling_full = 0;
 };
+
+double median(std::vector<double> v) {
+    if (v.empty()) return 0.0;
+    std::sort(v.begin(), v.end());
+    return v[v.size() / 2];
+}
 
 /// User + system CPU seconds of the whole process so far.
 double cpu_seconds() {
@@ -53,14 +68,28 @@ double cpu_seconds() {
     return double(u.ru_utime.tv_sec + u.ru_stime.tv_sec) + 1e-6 * double(u.ru_utime.tv_usec + u.ru_stime.tv_usec);
 }
 
+/// Returns once `threads` threads of the current arena have each run a task (or after
+/// 50 ms, so a worker that never comes cannot hang the benchmark).
+void join_all(int threads) {
+    std::atomic<int> arrived{0};
+    tbb::parallel_for(
+        0, threads, 1,
+        [&](int) {
+            arrived.fetch_add(1);
+            const auto limit = Clock::now() + std::chrono::milliseconds(50);
+            while (arrived.load() < threads && Clock::now() < limit) {
+            }
+        },
+        tbb::simple_partitioner());
+}
+
 /// Median Mrays/s over `repeats` traces of `set` with `threads` threads. `cpu_util` gets
 /// the CPU time the process obtained per wall second over all repeats: on a shared
 /// machine, 2 threads that only get ~1.2 CPUs cannot scale 1.8x, and this says so.
 double measure(const accel::Accelerator& a, const renderer::RaySet& set, int threads, int repeats,
                accel::TraceStats& stats, double& cpu_util, bool pin, int first_cpu = 0) {
     std::vector<double> rates;
-    double wall = 0;
-    const double cpu0 = cpu_seconds();
+    double wall = 0, cpu = 0;
     tbb::task_arena arena(threads);
     bench::PinArena pinned(arena, pin, first_cpu);
     // The results land in an array allocated and cleared before the clock starts
@@ -69,14 +98,24 @@ double measure(const accel::Accelerator& a, const renderer::RaySet& set, int thr
     for (int r = 0; r < repeats; ++r) {
         accel::TraceStats st;
         st.counting = stats.counting;
-        const auto t0 = Clock::now();
-        arena.execute([&] { renderer::trace_set_into(a, set, st, out); });
-        const double s = std::chrono::duration<double>(Clock::now() - t0).count();
+        double s = 0;
+        arena.execute([&] {
+            // The arena's other threads join before the clock starts, so a worker's
+            // wake-up is not timed (measured in session 11: ~20 us on a quiet machine,
+            // past 50 ms when another process holds the worker's CPU; a 2-thread trace
+            // of a course mesh lasts 4-10 ms).
+            if (threads > 1) join_all(threads);
+            const double c0 = cpu_seconds();
+            const auto t0 = Clock::now();
+            renderer::trace_set_into(a, set, st, out);
+            s = std::chrono::duration<double>(Clock::now() - t0).count();
+            cpu += cpu_seconds() - c0;
+        });
         rates.push_back(double(set.rays.size()) / std::max(s, 1e-9) / 1e6);
         wall += s;
         if (r == 0) stats = st;
     }
-    cpu_util = (cpu_seconds() - cpu0) / std::max(wall, 1e-9);
+    cpu_util = cpu / std::max(wall, 1e-9);
     std::sort(rates.begin(), rates.end());
     return rates[rates.size() / 2];
 }
@@ -221,6 +260,7 @@ int main(int argc, char** argv) {
 
     std::vector<Row> rows;
     const int max_threads = *std::max_element(thread_counts.begin(), thread_counts.end());
+    const bench::MachineProbe probe(pin);
     /// (scene, backend, kind) -> Mrays/s of one thread alone on the 2nd, 3rd, ... CPU.
     std::map<std::tuple<std::string, std::string, std::string>, std::vector<double>> alone;
     // Rewritten after every scene, so a long run that is stopped keeps what it measured.
@@ -230,13 +270,17 @@ int main(int argc, char** argv) {
             {
                 std::ofstream out(tmp);
                 out << "scene,triangles,backend,ray_kind,threads,mrays_per_s,ratio_to_embree,tests_per_ray,"
-                       "nodes_per_ray,build_ms,bytes,cpu_util,kernel\n";
+                       "nodes_per_ray,build_ms,bytes,cpu_util,kernel,machine_scaling,full_rounds,"
+                       "scaling_full_rounds\n";
                 for (const Row& r : rows)
-                    out << fmt::format("{},{},{},{},{},{:.4f},{:.4f},{},{},{:.2f},{},{:.2f},{}\n", r.scene, r.triangles,
-                                       r.backend, r.kind, r.threads, r.mrays, r.ratio,
+                    out << fmt::format("{},{},{},{},{},{:.4f},{:.4f},{},{},{:.2f},{},{:.2f},{},{},{},{}\n", r.scene,
+                                       r.triangles, r.backend, r.kind, r.threads, r.mrays, r.ratio,
                                        r.counts_prims ? fmt::format("{:.3f}", r.tests_per_ray) : "",
                                        r.counts_nodes ? fmt::format("{:.3f}", r.nodes_per_ray) : "", r.build_ms,
-                                       r.bytes, r.cpu_util, r.kernel);
+                                       r.bytes, r.cpu_util, r.kernel,
+                                       r.machine > 0 ? fmt::format("{:.3f}", r.machine) : "",
+                                       r.machine > 0 ? std::to_string(r.full_rounds) : "",
+                                       r.full_rounds > 0 ? fmt::format("{:.4f}", r.scaling_full) : "");
                 if (!out) fail(csv_path + ": write failed");
             }
             std::filesystem::rename(tmp, csv_path);
@@ -305,13 +349,14 @@ int main(int argc, char** argv) {
                 double wall = 0, cpu = 0;
                 accel::TraceStats stats;
                 int first_cpu = 0;  ///< > 0: one thread alone on that CPU (see `alone`)
+                std::vector<double> machine;  ///< per round, several threads: MachineProbe
             };
             std::vector<Cell> cells;
             for (int threads : thread_counts)
                 for (size_t i = 0; i < accels.size(); ++i)
                     // Naive only for the single-threaded camera rays: enough to show its cost.
                     if (specs[i].backend != "naive" || (threads == 1 && kind == renderer::RayKind::Camera))
-                        cells.push_back({threads, i, {}, 0, 0, {}});
+                        cells.push_back({threads, i, {}, 0, 0, {}, 0, {}});
             // With several threads, one thread alone on each further CPU they use, too:
             // on a shared host one vCPU can run a kernel much slower than another (its
             // core's other hardware thread busy), so N threads are set against the sum of
@@ -319,7 +364,7 @@ int main(int argc, char** argv) {
             if (pin)
                 for (int cpu = 1; cpu < std::min(max_threads, bench::usable_cpus()); ++cpu)
                     for (size_t i = 0; i < accels.size(); ++i)
-                        if (specs[i].backend != "naive") cells.push_back({1, i, {}, 0, 0, {}, cpu});
+                        if (specs[i].backend != "naive") cells.push_back({1, i, {}, 0, 0, {}, cpu, {}});
             std::fprintf(stderr, "[accel_bench] %s %s rays: %zu cells x %d rounds\n", name.c_str(),
                          renderer::ray_kind_name(kind), cells.size(), repeats);
             for (int round = 0; round < std::max(1, repeats); ++round)
@@ -335,7 +380,11 @@ int main(int argc, char** argv) {
                     accel::TraceStats st;
                     st.counting = false;
                     double util = 0;
+                    // The probe brackets the trace; the lower of the two is what the
+                    // machine gave at least, around it.
+                    const double before = c.threads > 1 ? probe.scaling(c.threads) : 0.0;
                     const double mr = measure(*accels[c.backend], set, c.threads, 1, st, util, pin, c.first_cpu);
+                    if (c.threads > 1) c.machine.push_back(std::min(before, probe.scaling(c.threads)));
                     c.rates.push_back(mr);
                     const double wall = double(set.rays.size()) / (mr * 1e6);
                     c.wall += wall;
@@ -346,8 +395,7 @@ int main(int argc, char** argv) {
                 size_t first = rows.size();
                 for (Cell& c : cells) {
                     if (c.threads != threads) continue;
-                    std::sort(c.rates.begin(), c.rates.end());
-                    const double mr = c.rates[c.rates.size() / 2];
+                    const double mr = median(c.rates);
                     if (c.first_cpu > 0) {
                         alone[{name, specs[c.backend].label, renderer::ray_kind_name(kind)}].push_back(mr);
                         continue;
@@ -358,6 +406,20 @@ int main(int argc, char** argv) {
                                     c.stats.tests_per_ray(), c.stats.nodes_per_ray(), build_ms[i], info.bytes,
                                     info.counts_prims, info.counts_nodes, c.cpu / std::max(c.wall, 1e-9)});
                     rate[specs[i].label] = mr;
+                    if (threads > 1 && !c.machine.empty()) {
+                        Row& row = rows.back();
+                        row.machine = median(c.machine);
+                        // Round r of this cell against round r of the same backend's
+                        // 1-thread cell: the two ran seconds apart at most.
+                        const Cell* one = nullptr;
+                        for (const Cell& o : cells)
+                            if (o.threads == 1 && o.first_cpu == 0 && o.backend == c.backend) one = &o;
+                        std::vector<double> full;
+                        for (size_t r = 0; one && r < c.machine.size() && r < one->rates.size(); ++r)
+                            if (c.machine[r] >= 0.9 * threads) full.push_back(c.rates[r] / one->rates[r]);
+                        row.full_rounds = int(full.size());
+                        row.scaling_full = full.empty() ? 0.0 : median(full);
+                    }
                 }
                 const double ref = rate.count("embree:high") ? rate["embree:high"] : 0.0;
                 for (size_t r = first; r < rows.size(); ++r) rows[r].ratio = ref > 0 ? rows[r].mrays / ref : 0.0;
@@ -403,6 +465,12 @@ int main(int argc, char** argv) {
             sum = fmt::format("; CPUs alone {} of the first, {} threads = {:.2f} of their sum", each, b->threads,
                               total > 0 ? b->mrays / total : 0.0);
         }
+        if (b->machine > 0)
+            sum += fmt::format("; machine probe {:.2f}x, {}", b->machine,
+                               b->full_rounds > 0 ? fmt::format("{:.2f}x in the {} of {} rounds it reached {:.2f}",
+                                                                b->scaling_full, b->full_rounds, std::max(1, repeats),
+                                                                0.9 * b->threads)
+                                                  : fmt::format("no round reached {:.2f}", 0.9 * b->threads));
         std::printf("  %-18s %-22s %-8s %d threads: %.2fx (%.2f CPUs obtained%s)   build %.2fx embree:high\n",
                     a.scene.c_str(), a.backend.c_str(), a.kind.c_str(), b->threads, a.mrays > 0 ? b->mrays / a.mrays : 0.0,
                     b->cpu_util, sum.c_str(), embree_build > 0 ? a.build_ms / embree_build : 0.0);

@@ -1,0 +1,104 @@
+// The machine's own N-thread scaling, measured beside each timed N-thread cell.
+//
+// Found in session 11 (RESULTS.md): on the 2-vCPU CI machine a loop of register-only
+// multiply-adds, with no memory traffic and nothing shared, scales 1.0x to 2.6x from one
+// thread to two, varying from one second to the next. The host now and then runs both
+// vCPUs on the two hardware threads of one core (or takes one away), and no kernel can
+// scale then: the better a kernel fills a core's pipes, the less a second hardware thread
+// adds. A thread-scaling figure without the machine's own figure beside it cannot tell a
+// kernel that does not scale from a machine that gave one core. So every N-thread trace
+// is bracketed by this probe, and accel_bench reports the probe and the scaling over the
+// rounds in which the machine gave N cores.
+#pragma once
+
+#include <sched.h>
+
+#include <algorithm>
+#include <atomic>
+#include <chrono>
+#include <thread>
+#include <vector>
+
+#include "benchmarks/pin.h"
+
+namespace bench {
+
+class MachineProbe {
+public:
+    /// `pin`: thread i runs on the process's i-th CPU (as PinArena pins the timed threads).
+    explicit MachineProbe(bool pin) : pin_(pin) {
+        cpus_ = process_cpus(all_);
+        // About 2 ms of work per thread: short beside a trace, long beside thread start-up.
+        long n = 1 << 14;
+        double t = 0;
+        for (int k = 0; k < 3; ++k) t = k == 0 ? seconds(n) : std::min(t, seconds(n));
+        iterations_ = std::max<long>(1 << 12, long(double(n) * 2e-3 / std::max(t, 1e-9)));
+    }
+
+    /// The speed-up of `threads` threads running the same work at once over one thread
+    /// alone: `threads` on N free cores, ~1 when they share one core's pipes.
+    double scaling(int threads) const {
+        const double alone = timed_on(0);
+        std::vector<double> each(size_t(threads), 0.0);
+        std::atomic<int> ready{0};
+        std::vector<std::thread> pool;
+        for (int i = 1; i < threads; ++i)
+            pool.emplace_back([&, i] { each[size_t(i)] = run_synchronised(i, ready, threads); });
+        each[0] = run_synchronised(0, ready, threads);
+        for (auto& th : pool) th.join();
+        unpin();
+        double sum = 0;
+        for (double t : each) sum += alone / std::max(t, 1e-9);
+        return sum;
+    }
+
+private:
+    /// Eight independent multiply-add chains: the pipes stay busy, memory is untouched.
+    static float work(long n) {
+        float a[8];
+        for (int i = 0; i < 8; ++i) a[i] = 1.0f + float(i) * 1e-3f;
+        for (long k = 0; k < n; ++k)
+            for (float& x : a) x = x * 0.999999f + 1e-7f;
+        float s = 0;
+        for (float x : a) s += x;
+        return s;
+    }
+    static double seconds(long n) {
+        const auto t0 = std::chrono::steady_clock::now();
+        sink_ = sink_ + work(n);
+        return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    }
+    void pin_to(int slot) const {
+        if (!pin_ || cpus_.empty()) return;
+        cpu_set_t one;
+        CPU_ZERO(&one);
+        CPU_SET(cpus_[size_t(slot) % cpus_.size()], &one);
+        sched_setaffinity(0, sizeof(one), &one);
+    }
+    void unpin() const {
+        if (!pin_ || cpus_.empty()) return;
+        sched_setaffinity(0, sizeof(all_), &all_);
+    }
+    double timed_on(int slot) const {
+        pin_to(slot);
+        return seconds(iterations_);
+    }
+    /// Every thread starts its timed work once all are pinned and ready, so thread
+    /// start-up neither counts nor lets one thread run alone at the start.
+    double run_synchronised(int slot, std::atomic<int>& ready, int threads) const {
+        pin_to(slot);
+        ready.fetch_add(1);
+        const auto limit = std::chrono::steady_clock::now() + std::chrono::milliseconds(50);
+        while (ready.load() < threads && std::chrono::steady_clock::now() < limit) {
+        }
+        return seconds(iterations_);
+    }
+
+    bool pin_;
+    cpu_set_t all_{};  ///< the process's CPUs at construction, restored after each probe
+    std::vector<int> cpus_;
+    long iterations_ = 0;
+    static inline volatile float sink_ = 0;
+};
+
+}  // namespace bench
