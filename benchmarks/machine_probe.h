@@ -12,6 +12,7 @@
 #pragma once
 
 #include <sched.h>
+#include <xmmintrin.h>
 
 #include <algorithm>
 #include <atomic>
@@ -53,15 +54,37 @@ public:
     }
 
 private:
-    /// Eight independent multiply-add chains: the pipes stay busy, memory is untouched.
+    /// Twelve independent 4-wide multiply-then-add chains (SSE2, so any x86-64): enough in
+    /// flight to keep a core's multiply pipes full, so a second hardware thread on the
+    /// same core halves each thread's speed. (The first version, eight scalar chains,
+    /// was latency-bound: two threads on one core both ran at full speed, and it read
+    /// 2.0 while an 8-chain AVX2 FMA loop read 1.0-1.3.) Memory is untouched.
     static float work(long n) {
-        float a[8];
-        for (int i = 0; i < 8; ++i) a[i] = 1.0f + float(i) * 1e-3f;
-        for (long k = 0; k < n; ++k)
-            for (float& x : a) x = x * 0.999999f + 1e-7f;
-        float s = 0;
-        for (float x : a) s += x;
-        return s;
+        // Named accumulators, not an array: an array went through the stack (store to
+        // load forwarding on every step), which made the loop latency-bound again.
+        const __m128 m = _mm_set1_ps(0.999999f), c = _mm_set1_ps(1e-7f);
+        __m128 a0 = _mm_set1_ps(1.000f), a1 = _mm_set1_ps(1.001f), a2 = _mm_set1_ps(1.002f),
+               a3 = _mm_set1_ps(1.003f), a4 = _mm_set1_ps(1.004f), a5 = _mm_set1_ps(1.005f),
+               a6 = _mm_set1_ps(1.006f), a7 = _mm_set1_ps(1.007f), a8 = _mm_set1_ps(1.008f),
+               a9 = _mm_set1_ps(1.009f), a10 = _mm_set1_ps(1.010f), a11 = _mm_set1_ps(1.011f);
+        for (long k = 0; k < n; ++k) {
+            a0 = _mm_add_ps(_mm_mul_ps(a0, m), c);
+            a1 = _mm_add_ps(_mm_mul_ps(a1, m), c);
+            a2 = _mm_add_ps(_mm_mul_ps(a2, m), c);
+            a3 = _mm_add_ps(_mm_mul_ps(a3, m), c);
+            a4 = _mm_add_ps(_mm_mul_ps(a4, m), c);
+            a5 = _mm_add_ps(_mm_mul_ps(a5, m), c);
+            a6 = _mm_add_ps(_mm_mul_ps(a6, m), c);
+            a7 = _mm_add_ps(_mm_mul_ps(a7, m), c);
+            a8 = _mm_add_ps(_mm_mul_ps(a8, m), c);
+            a9 = _mm_add_ps(_mm_mul_ps(a9, m), c);
+            a10 = _mm_add_ps(_mm_mul_ps(a10, m), c);
+            a11 = _mm_add_ps(_mm_mul_ps(a11, m), c);
+        }
+        const __m128 s = _mm_add_ps(_mm_add_ps(_mm_add_ps(a0, a1), _mm_add_ps(a2, a3)),
+                                    _mm_add_ps(_mm_add_ps(_mm_add_ps(a4, a5), _mm_add_ps(a6, a7)),
+                                               _mm_add_ps(_mm_add_ps(a8, a9), _mm_add_ps(a10, a11))));
+        return _mm_cvtss_f32(s);
     }
     static double seconds(long n) {
         const auto t0 = std::chrono::steady_clock::now();
