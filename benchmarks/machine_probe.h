@@ -67,19 +67,10 @@ private:
                a3 = _mm_set1_ps(1.003f), a4 = _mm_set1_ps(1.004f), a5 = _mm_set1_ps(1.005f),
                a6 = _mm_set1_ps(1.006f), a7 = _mm_set1_ps(1.007f), a8 = _mm_set1_ps(1.008f),
                a9 = _mm_set1_ps(1.009f), a10 = _mm_set1_ps(1.010f), a11 = _mm_set1_ps(1.011f);
+        const auto step = [m, c](__m128& a) { a = _mm_add_ps(_mm_mul_ps(a, m), c); };
         for (long k = 0; k < n; ++k) {
-            a0 = _mm_add_ps(_mm_mul_ps(a0, m), c);
-            a1 = _mm_add_ps(_mm_mul_ps(a1, m), c);
-            a2 = _mm_add_ps(_mm_mul_ps(a2, m), c);
-            a3 = _mm_add_ps(_mm_mul_ps(a3, m), c);
-            a4 = _mm_add_ps(_mm_mul_ps(a4, m), c);
-            a5 = _mm_add_ps(_mm_mul_ps(a5, m), c);
-            a6 = _mm_add_ps(_mm_mul_ps(a6, m), c);
-            a7 = _mm_add_ps(_mm_mul_ps(a7, m), c);
-            a8 = _mm_add_ps(_mm_mul_ps(a8, m), c);
-            a9 = _mm_add_ps(_mm_mul_ps(a9, m), c);
-            a10 = _mm_add_ps(_mm_mul_ps(a10, m), c);
-            a11 = _mm_add_ps(_mm_mul_ps(a11, m), c);
+            step(a0), step(a1), step(a2), step(a3), step(a4), step(a5);
+            step(a6), step(a7), step(a8), step(a9), step(a10), step(a11);
         }
         const __m128 s = _mm_add_ps(_mm_add_ps(_mm_add_ps(a0, a1), _mm_add_ps(a2, a3)),
                                     _mm_add_ps(_mm_add_ps(_mm_add_ps(a4, a5), _mm_add_ps(a6, a7)),
