@@ -3,6 +3,8 @@
 
   tables.py accel ACCEL_CSV > accel_table.md
   tables.py tradeoff TRADEOFF_CSV > tradeoff_table.md
+  tables.py runs ACCEL_CSV...     issue 13's table over several runs of one command
+  tables.py threads ACCEL_CSV...  thread scaling per run, beside the machine probe
 
 The tradeoff table ranks settings by efficiency, 1 / (rel_rmse^2 * seconds): for an
 unbiased estimator error falls as 1/sqrt(time), so err^2 * time is constant along a
@@ -96,7 +98,73 @@ def tradeoff(path):
                   f"{r['rel_rmse_debiased']:.4f} | {r['rel_rmse_shadow_debiased']:.4f} | {ei:.2f} / {es:.2f} |")
 
 
+def _index(path):
+    """(scene, backend, ray_kind, threads) -> row of one accel_bench CSV."""
+    return {(r["scene"], r["backend"], r["ray_kind"], int(r["threads"])): r for r in csv.DictReader(open(path))}
+
+
+def runs(paths, fast="custom:sah:fast"):
+    """Issue 13's one-thread table: the fast backend's ratio to Embree HIGH in each run, the
+    other custom backends' medians beside it, and per run how many cells reach 1.0 and 1.2
+    (the issue's targets: every cell >= 1.0, half of them >= 1.2)."""
+    idx = [_index(p) for p in paths]
+    cells = list(OrderedDict.fromkeys((k[0], k[2]) for k in idx[0] if k[1] == fast and k[3] == 1))
+    others = list(OrderedDict.fromkeys(k[1] for k in idx[0] if k[1].startswith("custom:") and k[1] != fast))
+    mark = lambda x: f"**{x:.2f}**" if x < 1.0 else f"{x:.2f}"
+    med = lambda v: sorted(v)[len(v) // 2]
+    print("| scene | rays | " + fast + " " + " / ".join(f"run {i + 1}" for i in range(len(idx))) + " | "
+          + " | ".join(others) + " | Embree HIGH Mrays/s |")
+    print("|" + "---|" * (3 + len(others) + 1))
+    for scene, kind in cells:
+        f = [float(ix[(scene, fast, kind, 1)]["ratio_to_embree"]) for ix in idx]
+        o = [med([float(ix[(scene, b, kind, 1)]["ratio_to_embree"]) for ix in idx]) for b in others]
+        e = med([float(ix[(scene, "embree:high", kind, 1)]["mrays_per_s"]) for ix in idx])
+        print(f"| {scene} | {kind} | " + " / ".join(mark(x) for x in f) + " | "
+              + " | ".join(mark(x) for x in o) + f" | {e:.2f} |")
+    print()
+    for i, ix in enumerate(idx):
+        f = [(float(ix[(sc, fast, k, 1)]["ratio_to_embree"]), f"{sc} {k}") for sc, k in cells]
+        lo = min(f)
+        print(f"run {i + 1} ({paths[i]}): >= 1.0 on {sum(x >= 1.0 for x, _ in f)} of {len(f)} cells, "
+              f">= 1.2 on {sum(x >= 1.2 for x, _ in f)}; lowest {lo[0]:.2f} ({lo[1]})")
+
+
+def threads(paths, target=1.8):
+    """Per run: each backend's N-thread / 1-thread scaling, the cells below `target`, and
+    the machine probe accel_bench measured beside them (machine_probe.h): the scaling
+    over the rounds in which the machine gave N cores, and in cells where it gave ~one."""
+    for path in paths:
+        ix = _index(path)
+        per = OrderedDict()
+        for (scene, backend, kind, t), r in ix.items():
+            one = ix.get((scene, backend, kind, 1))
+            if t == 1 or not one or float(one["mrays_per_s"]) <= 0:
+                continue
+            s = float(r["mrays_per_s"]) / float(one["mrays_per_s"])
+            probe = float(r["machine_scaling"]) if r.get("machine_scaling") else float("nan")
+            full = float(r["scaling_full_rounds"]) if r.get("scaling_full_rounds") else None
+            per.setdefault(backend, []).append((s, probe, full, int(r.get("full_rounds") or 0), f"{scene} {kind}", t))
+        print(f"{path}:")
+        for backend, v in per.items():
+            below = [x for x in v if x[0] < target]
+            fulls = [x[2] for x in v if x[2] is not None]
+            probe = (f"over the rounds the probe gave {0.9 * v[0][5]:.2f}: "
+                     f"{sum(x >= target for x in fulls)} of {len(fulls)} cells >= {target}"
+                     if any(x[1] == x[1] for x in v) else "no machine probe in this CSV (before session 11)")
+            print(f"  {backend}: {min(x[0] for x in v):.2f}-{max(x[0] for x in v):.2f}x, "
+                  f"{len(v) - len(below)} of {len(v)} cells >= {target}; {probe}")
+            for s, probe, full, n, cell, _ in below:
+                why = "" if probe != probe else f", probe {probe:.2f}, " + (
+                    f"{full:.2f}x over {n} such rounds" if full is not None else "no such round")
+                print(f"    {cell}: {s:.2f}x{why}")
+
+
 if __name__ == "__main__":
-    if len(sys.argv) != 3 or sys.argv[1] not in ("accel", "tradeoff"):
+    if len(sys.argv) < 3 or sys.argv[1] not in ("accel", "tradeoff", "runs", "threads"):
         sys.exit(__doc__)
-    (accel if sys.argv[1] == "accel" else tradeoff)(sys.argv[2])
+    if sys.argv[1] in ("accel", "tradeoff"):
+        if len(sys.argv) != 3:
+            sys.exit(__doc__)
+        (accel if sys.argv[1] == "accel" else tradeoff)(sys.argv[2])
+    else:
+        (runs if sys.argv[1] == "runs" else threads)(sys.argv[2:])
