@@ -229,6 +229,11 @@ int main(int argc, char** argv) {
     app.add_flag("--no-pin", no_pin, "Leave the timed threads unpinned (default: thread i of a timed arena runs on "
                                      "the i-th CPU this process may use)");
     app.add_flag("--no-course", no_course, "Skip the course's with/without-BVH comparison on cow");
+    double wait_for_cores = 0;
+    app.add_option("--wait-for-cores", wait_for_cores,
+                   "Before each N-thread trace, wait up to SECONDS for the machine probe to read >= 0.9 N "
+                   "(the host giving N cores; default 0: time at once). Rows still report the raw median")
+        ->check(CLI::Range(0.0, 60.0));
     tools::parse_or_exit(app, argc, argv, "accel_bench");
     const bool pin = !no_pin;
     if (quick) {
@@ -382,7 +387,16 @@ int main(int argc, char** argv) {
                     double util = 0;
                     // The probe brackets the trace; the lower of the two is what the
                     // machine gave at least, around it.
-                    const double before = c.threads > 1 ? probe.scaling(c.threads) : 0.0;
+                    double before = c.threads > 1 ? probe.scaling(c.threads) : 0.0;
+                    if (c.threads > 1 && wait_for_cores > 0) {
+                        // On a shared host the machine gives N cores or fewer from one
+                        // second to the next (machine_probe.h); wait for N, within limits.
+                        const auto limit = Clock::now() + std::chrono::duration<double>(wait_for_cores);
+                        while (before < 0.9 * c.threads && Clock::now() < limit) {
+                            std::this_thread::sleep_for(std::chrono::milliseconds(50));
+                            before = probe.scaling(c.threads);
+                        }
+                    }
                     const double mr = measure(*accels[c.backend], set, c.threads, 1, st, util, pin, c.first_cpu);
                     if (c.threads > 1) c.machine.push_back(std::min(before, probe.scaling(c.threads)));
                     c.rates.push_back(mr);
