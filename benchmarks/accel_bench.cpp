@@ -116,8 +116,7 @@ double measure(const accel::Accelerator& a, const renderer::RaySet& set, int thr
         if (r == 0) stats = st;
     }
     cpu_util = cpu / std::max(wall, 1e-9);
-    std::sort(rates.begin(), rates.end());
-    return rates[rates.size() / 2];
+    return median(rates);
 }
 
 /// Build time alone at each thread count: rounds of (threads, backend) cells, so the
@@ -152,15 +151,10 @@ void build_study(const std::string& name, const renderer::SceneGeometry& geometr
     std::printf("build study: %s (median of %d builds per cell; threads 0 = all cores)\n", name.c_str(), rounds);
     std::printf("  %-24s %7s %10s %6s %18s\n", "backend", "threads", "build ms", "cpus", "vs embree:high");
     for (Cell& c : cells) {
-        std::sort(c.ms.begin(), c.ms.end());
-        const double med = c.ms[c.ms.size() / 2];
+        const double med = median(c.ms);
         double ref = 0;
         for (Cell& e : cells)
-            if (e.threads == c.threads && specs[e.spec].label == "embree:high") {
-                std::vector<double> m = e.ms;
-                std::sort(m.begin(), m.end());
-                ref = m[m.size() / 2];
-            }
+            if (e.threads == c.threads && specs[e.spec].label == "embree:high") ref = median(e.ms);
         std::printf("  %-24s %7d %10.1f %6.2f %18s\n", specs[c.spec].label.c_str(), c.threads, med,
                     c.cpu / std::max(c.wall, 1e-9), ref > 0 ? fmt::format("{:.2f}x", med / ref).c_str() : "-");
     }
@@ -333,9 +327,8 @@ int main(int argc, char** argv) {
                 a = renderer::build_accelerator(s.backend, geometry, s.options, false);
                 times.push_back(std::chrono::duration<double, std::milli>(Clock::now() - t0).count());
             }
-            std::sort(times.begin(), times.end());
             accels.push_back(std::move(a));
-            build_ms.push_back(times[times.size() / 2]);
+            build_ms.push_back(median(times));
         }
         // The ray sets, generated once with the first BVH-like backend, traced by all.
         const accel::Accelerator& gen = *accels[std::min<size_t>(accels.size() - 1, tris <= 10000 ? 1 : 0)];

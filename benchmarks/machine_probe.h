@@ -83,11 +83,7 @@ private:
         return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     }
     void pin_to(int slot) const {
-        if (!pin_ || cpus_.empty()) return;
-        cpu_set_t one;
-        CPU_ZERO(&one);
-        CPU_SET(cpus_[size_t(slot) % cpus_.size()], &one);
-        sched_setaffinity(0, sizeof(one), &one);
+        if (pin_ && !cpus_.empty()) pin_this_thread(cpus_[size_t(slot) % cpus_.size()]);
     }
     void unpin() const {
         if (!pin_ || cpus_.empty()) return;

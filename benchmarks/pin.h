@@ -39,6 +39,14 @@ inline int usable_cpus() {
     return std::max<int>(1, int(process_cpus(all).size()));
 }
 
+/// Runs the calling thread on `cpu` alone.
+inline void pin_this_thread(int cpu) {
+    cpu_set_t one;
+    CPU_ZERO(&one);
+    CPU_SET(cpu, &one);
+    sched_setaffinity(0, sizeof(one), &one);
+}
+
 class PinArena : public tbb::task_scheduler_observer {
 public:
     /// `on`: false leaves the threads to the scheduler (--no-pin). Thread i runs on the
@@ -54,10 +62,7 @@ public:
 
     void on_scheduler_entry(bool) override {
         const int slot = tbb::this_task_arena::current_thread_index();
-        cpu_set_t one;
-        CPU_ZERO(&one);
-        CPU_SET(cpus_[size_t(first_ + (slot < 0 ? 0 : slot)) % cpus_.size()], &one);
-        sched_setaffinity(0, sizeof(one), &one);
+        pin_this_thread(cpus_[size_t(first_ + (slot < 0 ? 0 : slot)) % cpus_.size()]);
     }
     void on_scheduler_exit(bool) override { sched_setaffinity(0, sizeof(all_), &all_); }
 
