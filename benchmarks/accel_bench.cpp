@@ -6,6 +6,7 @@
 #include <tbb/task_arena.h>
 
 #include "benchmarks/machine_probe.h"
+#include "benchmarks/scaling.h"
 #include "benchmarks/pin.h"
 
 #include <algorithm>
@@ -55,11 +56,7 @@ struct Row {
     double scaling_full = 0;
 };
 
-double median(std::vector<double> v) {
-    if (v.empty()) return 0.0;
-    std::sort(v.begin(), v.end());
-    return v[v.size() / 2];
-}
+using bench::median;
 
 /// User + system CPU seconds of the whole process so far.
 double cpu_seconds() {
@@ -225,8 +222,9 @@ int main(int argc, char** argv) {
     app.add_flag("--no-course", no_course, "Skip the course's with/without-BVH comparison on cow");
     double wait_for_cores = 0;
     app.add_option("--wait-for-cores", wait_for_cores,
-                   "Before each N-thread trace, wait up to SECONDS for the machine probe to read >= 0.9 N "
-                   "(the host giving N cores; default 0: time at once). Rows still report the raw median")
+                   "Before each trace of a study with N > 1 threads (its 1-thread traces too), wait up to "
+                   "SECONDS for the machine probe to read >= 0.9 N (the host giving N cores; default 0: "
+                   "time at once). Rows still report the raw median")
         ->check(CLI::Range(0.0, 60.0));
     tools::parse_or_exit(app, argc, argv, "accel_bench");
     const bool pin = !no_pin;
@@ -278,7 +276,7 @@ int main(int argc, char** argv) {
                                        r.counts_nodes ? fmt::format("{:.3f}", r.nodes_per_ray) : "", r.build_ms,
                                        r.bytes, r.cpu_util, r.kernel,
                                        r.machine > 0 ? fmt::format("{:.3f}", r.machine) : "",
-                                       r.machine > 0 ? std::to_string(r.full_rounds) : "",
+                                       r.machine > 0 && r.threads > 1 ? std::to_string(r.full_rounds) : "",
                                        r.full_rounds > 0 ? fmt::format("{:.4f}", r.scaling_full) : "");
                 if (!out) fail(csv_path + ": write failed");
             }
@@ -347,7 +345,7 @@ int main(int argc, char** argv) {
                 double wall = 0, cpu = 0;
                 accel::TraceStats stats;
                 int first_cpu = 0;  ///< > 0: one thread alone on that CPU (see `alone`)
-                std::vector<double> machine;  ///< per round, several threads: MachineProbe
+                std::vector<double> machine;  ///< per round, in a study of several threads: MachineProbe
             };
             std::vector<Cell> cells;
             for (int threads : thread_counts)
@@ -379,20 +377,30 @@ int main(int argc, char** argv) {
                     st.counting = false;
                     double util = 0;
                     // The probe brackets the trace; the lower of the two is what the
-                    // machine gave at least, around it.
-                    double before = c.threads > 1 ? probe.scaling(c.threads) : 0.0;
-                    if (c.threads > 1 && wait_for_cores > 0) {
+                    // machine gave at least, around it. One-thread traces are probed too
+                    // when the study has several threads: a lone thread whose core's other
+                    // hardware thread is busy runs slower, which inflates the scaling
+                    // measured against it (session 12: 2.2-2.5x "scalings" of course meshes).
+                    const int probed = c.threads > 1 ? c.threads : (max_threads > 1 ? max_threads : 0);
+                    double before = probed > 0 ? probe.scaling(probed) : 0.0;
+                    if (probed > 0 && wait_for_cores > 0) {
                         // On a shared host the machine gives N cores or fewer from one
                         // second to the next (machine_probe.h); wait for N, within limits.
                         const auto limit = Clock::now() + std::chrono::duration<double>(wait_for_cores);
-                        while (before < 0.9 * c.threads && Clock::now() < limit) {
+                        while (before < 0.9 * probed && Clock::now() < limit) {
                             std::this_thread::sleep_for(std::chrono::milliseconds(50));
-                            before = probe.scaling(c.threads);
+                            before = probe.scaling(probed);
                         }
                     }
                     const double mr = measure(*accels[c.backend], set, c.threads, 1, st, util, pin, c.first_cpu);
-                    if (c.threads > 1) c.machine.push_back(std::min(before, probe.scaling(c.threads)));
+                    if (probed > 0) c.machine.push_back(std::min(before, probe.scaling(probed)));
                     c.rates.push_back(mr);
+                    std::fprintf(stderr, "[accel_bench] %s %s %s, %d thread%s%s, round %d: %.3f Mrays/s%s\n",
+                                 name.c_str(), renderer::ray_kind_name(kind), specs[c.backend].label.c_str(),
+                                 c.threads, c.threads > 1 ? "s" : "",
+                                 c.first_cpu > 0 ? fmt::format(" alone on CPU {}", c.first_cpu).c_str() : "",
+                                 round + 1, mr,
+                                 probed > 0 ? fmt::format(", probe {:.2f}", c.machine.back()).c_str() : "");
                     const double wall = double(set.rays.size()) / (mr * 1e6);
                     c.wall += wall;
                     c.cpu += util * wall;
@@ -413,19 +421,18 @@ int main(int argc, char** argv) {
                                     c.stats.tests_per_ray(), c.stats.nodes_per_ray(), build_ms[i], info.bytes,
                                     info.counts_prims, info.counts_nodes, c.cpu / std::max(c.wall, 1e-9)});
                     rate[specs[i].label] = mr;
+                    if (!c.machine.empty()) rows.back().machine = median(c.machine);
                     if (threads > 1 && !c.machine.empty()) {
                         Row& row = rows.back();
-                        row.machine = median(c.machine);
-                        // Round r of this cell against round r of the same backend's
-                        // 1-thread cell: the two ran seconds apart at most.
                         const Cell* one = nullptr;
                         for (const Cell& o : cells)
                             if (o.threads == 1 && o.first_cpu == 0 && o.backend == c.backend) one = &o;
-                        std::vector<double> full;
-                        for (size_t r = 0; one && r < c.machine.size() && r < one->rates.size(); ++r)
-                            if (c.machine[r] >= 0.9 * threads) full.push_back(c.rates[r] / one->rates[r]);
-                        row.full_rounds = int(full.size());
-                        row.scaling_full = full.empty() ? 0.0 : median(full);
+                        if (one) {
+                            const auto full = bench::scaling_over_full_rounds(c.rates, c.machine, one->rates,
+                                                                              one->machine, threads);
+                            row.full_rounds = full.rounds;
+                            row.scaling_full = full.scaling;
+                        }
                     }
                 }
                 const double ref = rate.count("embree:high") ? rate["embree:high"] : 0.0;

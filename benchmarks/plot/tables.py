@@ -143,7 +143,10 @@ def threads(paths, target=1.8):
             s = float(r["mrays_per_s"]) / float(one["mrays_per_s"])
             probe = float(r["machine_scaling"]) if r.get("machine_scaling") else float("nan")
             full = float(r["scaling_full_rounds"]) if r.get("scaling_full_rounds") else None
-            per.setdefault(backend, []).append((s, probe, full, int(r.get("full_rounds") or 0), f"{scene} {kind}", t))
+            # Since session 12 the 1-thread trace is probed too, in a study of several threads.
+            probe1 = float(one["machine_scaling"]) if one.get("machine_scaling") else float("nan")
+            per.setdefault(backend, []).append(
+                (s, probe, full, int(r.get("full_rounds") or 0), f"{scene} {kind}", t, probe1))
         print(f"{path}:")
         for backend, v in per.items():
             below = [x for x in v if x[0] < target]
@@ -153,8 +156,9 @@ def threads(paths, target=1.8):
                      if any(x[1] == x[1] for x in v) else "no machine probe in this CSV (before session 11)")
             print(f"  {backend}: {min(x[0] for x in v):.2f}-{max(x[0] for x in v):.2f}x, "
                   f"{len(v) - len(below)} of {len(v)} cells >= {target}; {probe}")
-            for s, probe, full, n, cell, _ in below:
-                why = "" if probe != probe else f", probe {probe:.2f}, " + (
+            for s, probe, full, n, cell, _, probe1 in below:
+                why = "" if probe != probe else f", probe {probe:.2f}" + (
+                    "" if probe1 != probe1 else f" (1-thread traces: {probe1:.2f})") + ", " + (
                     f"{full:.2f}x over {n} such rounds" if full is not None else "no such round")
                 print(f"    {cell}: {s:.2f}x{why}")
 

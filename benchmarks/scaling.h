@@ -1,0 +1,45 @@
+// Thread scaling from interleaved rounds, kept to the rounds in which the machine gave
+// the cores (machine_probe.h). accel_bench times each (threads, backend) cell once per
+// round; round r of an N-thread cell is set against round r of the same backend's
+// 1-thread cell, the two timed seconds apart at most.
+#pragma once
+
+#include <algorithm>
+#include <vector>
+
+namespace bench {
+
+/// The upper median (the middle of an odd count): a timing, never an interpolation.
+inline double median(std::vector<double> v) {
+    if (v.empty()) return 0.0;
+    std::sort(v.begin(), v.end());
+    return v[v.size() / 2];
+}
+
+struct FullRoundScaling {
+    int rounds = 0;        ///< rounds in which the machine gave the cores
+    double scaling = 0.0;  ///< median N-thread / 1-thread rate over them; 0 if none
+};
+
+/// `rates_n`, `probe_n`: the N-thread cell's rate and probe reading per round; `rates_1`,
+/// `probe_1`: the 1-thread cell's. A round counts when the probe read >= 0.9 N around both
+/// traces: the N-thread one on N cores, and the 1-thread one on a core of its own, since a
+/// lone thread whose core's other hardware thread is busy runs slower and inflates the
+/// scaling set against it. An empty `probe_1` (a 1-thread trace not probed) leaves the
+/// condition to `probe_n`.
+inline FullRoundScaling scaling_over_full_rounds(const std::vector<double>& rates_n,
+                                                 const std::vector<double>& probe_n,
+                                                 const std::vector<double>& rates_1,
+                                                 const std::vector<double>& probe_1, int threads) {
+    const double need = 0.9 * threads;
+    std::vector<double> ratios;
+    const size_t n = std::min({rates_n.size(), probe_n.size(), rates_1.size()});
+    for (size_t r = 0; r < n; ++r) {
+        if (probe_n[r] < need || rates_1[r] <= 0) continue;
+        if (r < probe_1.size() && probe_1[r] < need) continue;
+        ratios.push_back(rates_n[r] / rates_1[r]);
+    }
+    return {int(ratios.size()), median(ratios)};
+}
+
+}  // namespace bench

@@ -1,0 +1,38 @@
+// accel_bench's scaling over the rounds in which the machine gave the cores: which rounds
+// count decides whether a thread-scaling figure measures the kernel or the host.
+#include <gtest/gtest.h>
+
+#include "benchmarks/scaling.h"
+
+TEST(Median, IsTheMiddleTimingNotAnAverage) {
+    EXPECT_EQ(bench::median({}), 0.0);
+    EXPECT_EQ(bench::median({3.0, 1.0, 2.0}), 2.0);
+    EXPECT_EQ(bench::median({4.0, 1.0, 3.0, 2.0}), 3.0);  // upper middle: a measured value
+}
+
+TEST(FullRoundScaling, CountsOnlyRoundsWhereBothTracesHadTheCores) {
+    // Round 0: both on two cores. Round 1: the 2-thread trace shared a core (probe 1.1).
+    // Round 2: the 1-thread trace shared its core: it ran slow, and its 2.5x must not count.
+    // Round 3: both fine again.
+    const std::vector<double> two = {19.0, 12.0, 20.0, 18.0}, two_probe = {1.95, 1.10, 1.90, 1.85};
+    const std::vector<double> one = {10.0, 10.0, 8.0, 10.0}, one_probe = {1.90, 1.92, 1.15, 2.00};
+    const auto s = bench::scaling_over_full_rounds(two, two_probe, one, one_probe, 2);
+    EXPECT_EQ(s.rounds, 2);
+    EXPECT_DOUBLE_EQ(s.scaling, 1.9);  // rounds 0 and 3: 1.9 and 1.8, upper median
+}
+
+TEST(FullRoundScaling, UnprobedOneThreadTracesLeaveItToTheNThreadProbe) {
+    const auto s = bench::scaling_over_full_rounds({19.0, 12.0, 20.0}, {1.95, 1.10, 1.90}, {10.0, 10.0, 10.0}, {}, 2);
+    EXPECT_EQ(s.rounds, 2);
+    EXPECT_DOUBLE_EQ(s.scaling, 2.0);
+}
+
+TEST(FullRoundScaling, NoRoundWithTheCoresGivesNoFigure) {
+    const auto s = bench::scaling_over_full_rounds({12.0, 13.0}, {1.1, 1.2}, {10.0, 10.0}, {2.0, 2.0}, 2);
+    EXPECT_EQ(s.rounds, 0);
+    EXPECT_EQ(s.scaling, 0.0);
+    // Four threads need a probe of 3.6: 1.95 (two cores) is not enough.
+    EXPECT_EQ(bench::scaling_over_full_rounds({30.0}, {1.95}, {10.0}, {3.9}, 4).rounds, 0);
+    // Fewer 1-thread rounds than N-thread ones (a cell cut short): only the pairs count.
+    EXPECT_EQ(bench::scaling_over_full_rounds({20.0, 20.0}, {2.0, 2.0}, {10.0}, {2.0}, 2).rounds, 1);
+}
