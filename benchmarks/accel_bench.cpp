@@ -54,6 +54,9 @@ struct Row {
     double machine = 0;
     int full_rounds = 0;
     double scaling_full = 0;
+    /// Rows of several threads, traced pinned: per round, the rate over the sum of the
+    /// rates one thread reached alone on each CPU used (bench::efficiency_over_cpus_alone).
+    double efficiency = 0;
 };
 
 using bench::median;
@@ -268,16 +271,17 @@ int main(int argc, char** argv) {
                 std::ofstream out(tmp);
                 out << "scene,triangles,backend,ray_kind,threads,mrays_per_s,ratio_to_embree,tests_per_ray,"
                        "nodes_per_ray,build_ms,bytes,cpu_util,kernel,machine_scaling,full_rounds,"
-                       "scaling_full_rounds\n";
+                       "scaling_full_rounds,efficiency_per_round\n";
                 for (const Row& r : rows)
-                    out << fmt::format("{},{},{},{},{},{:.4f},{:.4f},{},{},{:.2f},{},{:.2f},{},{},{},{}\n", r.scene,
+                    out << fmt::format("{},{},{},{},{},{:.4f},{:.4f},{},{},{:.2f},{},{:.2f},{},{},{},{},{}\n", r.scene,
                                        r.triangles, r.backend, r.kind, r.threads, r.mrays, r.ratio,
                                        r.counts_prims ? fmt::format("{:.3f}", r.tests_per_ray) : "",
                                        r.counts_nodes ? fmt::format("{:.3f}", r.nodes_per_ray) : "", r.build_ms,
                                        r.bytes, r.cpu_util, r.kernel,
                                        r.machine > 0 ? fmt::format("{:.3f}", r.machine) : "",
                                        r.machine > 0 && r.threads > 1 ? std::to_string(r.full_rounds) : "",
-                                       r.full_rounds > 0 ? fmt::format("{:.4f}", r.scaling_full) : "");
+                                       r.full_rounds > 0 ? fmt::format("{:.4f}", r.scaling_full) : "",
+                                       r.efficiency > 0 ? fmt::format("{:.4f}", r.efficiency) : "");
                 if (!out) fail(csv_path + ": write failed");
             }
             std::filesystem::rename(tmp, csv_path);
@@ -421,18 +425,25 @@ int main(int argc, char** argv) {
                                     c.stats.tests_per_ray(), c.stats.nodes_per_ray(), build_ms[i], info.bytes,
                                     info.counts_prims, info.counts_nodes, c.cpu / std::max(c.wall, 1e-9)});
                     rate[specs[i].label] = mr;
-                    if (!c.machine.empty()) rows.back().machine = median(c.machine);
-                    if (threads > 1 && !c.machine.empty()) {
-                        Row& row = rows.back();
+                    Row& row = rows.back();
+                    if (!c.machine.empty()) row.machine = median(c.machine);
+                    if (threads > 1) {
+                        // The same backend's 1-thread cells: alone[k] on CPU k, round by round.
+                        std::vector<std::vector<double>> cpus(static_cast<size_t>(threads));
                         const Cell* one = nullptr;
                         for (const Cell& o : cells)
-                            if (o.threads == 1 && o.first_cpu == 0 && o.backend == c.backend) one = &o;
-                        if (one) {
+                            if (o.threads == 1 && o.backend == c.backend && o.first_cpu < threads) {
+                                cpus[size_t(o.first_cpu)] = o.rates;
+                                if (o.first_cpu == 0) one = &o;
+                            }
+                        if (one && !c.machine.empty()) {
                             const auto full = bench::scaling_over_full_rounds(c.rates, c.machine, one->rates,
                                                                               one->machine, threads);
                             row.full_rounds = full.rounds;
                             row.scaling_full = full.scaling;
                         }
+                        const bool all = std::all_of(cpus.begin(), cpus.end(), [](const auto& v) { return !v.empty(); });
+                        if (all) row.efficiency = bench::efficiency_over_cpus_alone(c.rates, cpus);
                     }
                 }
                 const double ref = rate.count("embree:high") ? rate["embree:high"] : 0.0;
@@ -479,6 +490,9 @@ int main(int argc, char** argv) {
             sum = fmt::format("; CPUs alone {} of the first, {} threads = {:.2f} of their sum", each, b->threads,
                               total > 0 ? b->mrays / total : 0.0);
         }
+        if (b->efficiency > 0)
+            sum += fmt::format("; per round {:.2f} of the CPUs alone ({:.2f}x on equal CPUs)", b->efficiency,
+                               b->efficiency * b->threads);
         if (b->machine > 0)
             sum += fmt::format("; machine probe {:.2f}x, {}", b->machine,
                                b->full_rounds > 0 ? fmt::format("{:.2f}x in the {} of {} rounds it reached {:.2f}",

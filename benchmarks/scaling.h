@@ -42,4 +42,26 @@ inline FullRoundScaling scaling_over_full_rounds(const std::vector<double>& rate
     return {int(ratios.size()), median(ratios)};
 }
 
+/// Parallel efficiency against the CPUs' own speeds: per round, the N-thread rate over the
+/// sum of the rates one thread reached alone on each of the N CPUs in that round
+/// (`alone[k][r]`: CPU k, round r; CPU 0's is the 1-thread cell), median over the rounds
+/// that have all N; 0 if none. On a shared host one vCPU can run a kernel 30 % slower than
+/// the other for seconds (session 12: its core's other hardware thread busy with work the
+/// register-only probe does not feel), and no code can then reach N times the first CPU;
+/// against the sum it can still reach 1. N x this efficiency is the scaling on N equal CPUs.
+inline double efficiency_over_cpus_alone(const std::vector<double>& rates_n,
+                                         const std::vector<std::vector<double>>& alone) {
+    std::vector<double> e;
+    for (size_t r = 0; r < rates_n.size() && !alone.empty(); ++r) {
+        double sum = 0;
+        bool all = true;
+        for (const auto& cpu : alone) {
+            all = all && r < cpu.size() && cpu[r] > 0;
+            if (all) sum += cpu[r];
+        }
+        if (all) e.push_back(rates_n[r] / sum);
+    }
+    return median(e);
+}
+
 }  // namespace bench

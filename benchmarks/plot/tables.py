@@ -132,7 +132,8 @@ def runs(paths, fast="custom:sah:fast"):
 def threads(paths, target=1.8):
     """Per run: each backend's N-thread / 1-thread scaling, the cells below `target`, and
     the machine probe accel_bench measured beside them (machine_probe.h): the scaling
-    over the rounds in which the machine gave N cores, and in cells where it gave ~one."""
+    over the rounds in which the machine gave N cores, and in cells where it gave ~one; and
+    the scaling per round against the sum of the N CPUs alone (N x `efficiency_per_round`)."""
     for path in paths:
         ix = _index(path)
         per = OrderedDict()
@@ -145,8 +146,9 @@ def threads(paths, target=1.8):
             full = float(r["scaling_full_rounds"]) if r.get("scaling_full_rounds") else None
             # Since session 12 the 1-thread trace is probed too, in a study of several threads.
             probe1 = float(one["machine_scaling"]) if one.get("machine_scaling") else float("nan")
+            eff = float(r["efficiency_per_round"]) if r.get("efficiency_per_round") else None
             per.setdefault(backend, []).append(
-                (s, probe, full, int(r.get("full_rounds") or 0), f"{scene} {kind}", t, probe1))
+                (s, probe, full, int(r.get("full_rounds") or 0), f"{scene} {kind}", t, probe1, eff))
         print(f"{path}:")
         for backend, v in per.items():
             below = [x for x in v if x[0] < target]
@@ -154,9 +156,16 @@ def threads(paths, target=1.8):
             probe = (f"over the rounds the probe gave {0.9 * v[0][5]:.2f}: "
                      f"{sum(x >= target for x in fulls)} of {len(fulls)} cells >= {target}"
                      if any(x[1] == x[1] for x in v) else "no machine probe in this CSV (before session 11)")
+            # Since session 12: per round, N threads against the sum of the N CPUs alone.
+            effs = [(x[7] * x[5], x[4]) for x in v if x[7] is not None]
+            eff = (f"; against the CPUs alone, per round: {min(effs)[0]:.2f}-{max(effs)[0]:.2f}x on equal CPUs, "
+                   f"{sum(e >= target for e, _ in effs)} of {len(effs)} cells >= {target}" if effs else "")
             print(f"  {backend}: {min(x[0] for x in v):.2f}-{max(x[0] for x in v):.2f}x, "
-                  f"{len(v) - len(below)} of {len(v)} cells >= {target}; {probe}")
-            for s, probe, full, n, cell, _, probe1 in below:
+                  f"{len(v) - len(below)} of {len(v)} cells >= {target}; {probe}{eff}")
+            for e, cell in effs:
+                if e < target:
+                    print(f"    {cell}: {e:.2f}x on equal CPUs")
+            for s, probe, full, n, cell, _, probe1, _ in below:
                 why = "" if probe != probe else f", probe {probe:.2f}" + (
                     "" if probe1 != probe1 else f" (1-thread traces: {probe1:.2f})") + ", " + (
                     f"{full:.2f}x over {n} such rounds" if full is not None else "no such round")

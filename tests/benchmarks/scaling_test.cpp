@@ -36,3 +36,21 @@ TEST(FullRoundScaling, NoRoundWithTheCoresGivesNoFigure) {
     // Fewer 1-thread rounds than N-thread ones (a cell cut short): only the pairs count.
     EXPECT_EQ(bench::scaling_over_full_rounds({20.0, 20.0}, {2.0, 2.0}, {10.0}, {2.0}, 2).rounds, 1);
 }
+
+TEST(EfficiencyOverCpusAlone, SetsEachRoundAgainstBothCpusInThatRound) {
+    // Round 0: equal CPUs, 19 of 20. Round 1: CPU 1 ran at 70 % alone, and two threads
+    // reached its sum (17 of 17): no code could reach 2x CPU 0 there. Round 2: two threads
+    // fell short of equal CPUs (15 of 20).
+    const std::vector<double> two = {19.0, 17.0, 15.0};
+    const std::vector<std::vector<double>> alone = {{10.0, 10.0, 10.0}, {10.0, 7.0, 10.0}};
+    EXPECT_DOUBLE_EQ(bench::efficiency_over_cpus_alone(two, alone), 0.95);  // of 0.95, 1.0, 0.75
+    // Two rounds: 15 of 20 and 15 of 17; the upper median is the second.
+    EXPECT_DOUBLE_EQ(bench::efficiency_over_cpus_alone({15.0, 15.0}, alone), 15.0 / 17.0);
+}
+
+TEST(EfficiencyOverCpusAlone, NeedsEveryCpuInTheRound) {
+    EXPECT_EQ(bench::efficiency_over_cpus_alone({19.0}, {}), 0.0);
+    EXPECT_EQ(bench::efficiency_over_cpus_alone({19.0, 19.0}, {{10.0, 10.0}, {}}), 0.0);
+    // A CPU with fewer rounds: only the rounds every CPU has count.
+    EXPECT_DOUBLE_EQ(bench::efficiency_over_cpus_alone({19.0, 10.0}, {{10.0, 10.0}, {10.0}}), 0.95);
+}
