@@ -1,5 +1,7 @@
 #!/bin/bash
 # thr.sh FIRST LAST : the thread study, runs FIRST..LAST, the five scenes, waiting for cores
+# threads_raw/: the same with "--wait-for-cores 3" removed. threads_isa/ and threads_variants/: BACKENDS set
+# to the backends their summary.txt names.
 OUT=${OUT:-/tmp/s12/thr}; mkdir -p $OUT
 S=/work/shared/scenes/cs184; B=/work/main/build/benchmarks/accel_bench
 for r in $(seq $1 $2); do
