@@ -30,7 +30,7 @@ for a,b,c in it:
             for k in keys: low[(m,k)].append(c2[k]/N[(m,k)])
 # rows hit by the sibling: ours below 0.8 in that cell
 print("\nrows where ours fell below 0.80 of its two-core median, and Embree in the same row:")
-for m in ['none','fp','chase','l2','stream']:
+for m in sorted({m for m,_ in low}):
     for kind in ['camera','diffuse']:
         pairs=[(o,e) for o,e in zip(low[(m,f'custom:sah:fast:{kind}')],low[(m,f'embree:high:{kind}')]) if o<0.8]
         if pairs: print(f"  {m:6s} {kind:8s} {len(pairs)} rows: ours {min(p[0] for p in pairs):.2f}-{max(p[0] for p in pairs):.2f}, Embree {min(p[1] for p in pairs):.2f}-{max(p[1] for p in pairs):.2f}")
