@@ -52,13 +52,14 @@ inline FullRoundScaling scaling_over_full_rounds(const std::vector<double>& rate
 inline double efficiency_over_cpus_alone(const std::vector<double>& rates_n,
                                          const std::vector<std::vector<double>>& alone) {
     std::vector<double> e;
-    for (size_t r = 0; r < rates_n.size() && !alone.empty(); ++r) {
+    if (alone.empty()) return 0.0;
+    for (size_t r = 0; r < rates_n.size(); ++r) {
         double sum = 0;
-        bool all = true;
-        for (const auto& cpu : alone) {
-            all = all && r < cpu.size() && cpu[r] > 0;
-            if (all) sum += cpu[r];
-        }
+        const bool all = std::all_of(alone.begin(), alone.end(), [&](const std::vector<double>& cpu) {
+            if (r >= cpu.size() || cpu[r] <= 0) return false;
+            sum += cpu[r];
+            return true;
+        });
         if (all) e.push_back(rates_n[r] / sum);
     }
     return median(e);

@@ -134,6 +134,7 @@ def threads(paths, target=1.8):
     the machine probe accel_bench measured beside them (machine_probe.h): the scaling
     over the rounds in which the machine gave N cores, and in cells where it gave ~one; and
     the scaling per round against the sum of the N CPUs alone (N x `efficiency_per_round`)."""
+    num = lambda r, k: float(r[k]) if r.get(k) else None
     for path in paths:
         ix = _index(path)
         per = OrderedDict()
@@ -141,35 +142,35 @@ def threads(paths, target=1.8):
             one = ix.get((scene, backend, kind, 1))
             if t == 1 or not one or float(one["mrays_per_s"]) <= 0:
                 continue
-            s = float(r["mrays_per_s"]) / float(one["mrays_per_s"])
-            probe = float(r["machine_scaling"]) if r.get("machine_scaling") else float("nan")
-            full = float(r["scaling_full_rounds"]) if r.get("scaling_full_rounds") else None
-            # Since session 12 the 1-thread trace is probed too, in a study of several threads.
-            probe1 = float(one["machine_scaling"]) if one.get("machine_scaling") else float("nan")
-            eff = float(r["efficiency_per_round"]) if r.get("efficiency_per_round") else None
-            per.setdefault(backend, []).append(
-                (s, probe, full, int(r.get("full_rounds") or 0), f"{scene} {kind}", t, probe1, eff))
+            eff = num(r, "efficiency_per_round")
+            per.setdefault(backend, []).append(dict(
+                cell=f"{scene} {kind}", threads=t,
+                scaling=float(r["mrays_per_s"]) / float(one["mrays_per_s"]),
+                probe=num(r, "machine_scaling"),
+                probe1=num(one, "machine_scaling"),  # since session 12, in a study of several threads
+                full=num(r, "scaling_full_rounds"), full_rounds=int(r.get("full_rounds") or 0),
+                equal=None if eff is None else eff * t))  # since session 12: against the CPUs alone
         print(f"{path}:")
         for backend, v in per.items():
-            below = [x for x in v if x[0] < target]
-            fulls = [x[2] for x in v if x[2] is not None]
-            probe = (f"over the rounds the probe gave {0.9 * v[0][5]:.2f}: "
+            below = [x for x in v if x["scaling"] < target]
+            fulls = [x["full"] for x in v if x["full"] is not None]
+            probe = (f"over the rounds the probe gave {0.9 * v[0]['threads']:.2f}: "
                      f"{sum(x >= target for x in fulls)} of {len(fulls)} cells >= {target}"
-                     if any(x[1] == x[1] for x in v) else "no machine probe in this CSV (before session 11)")
-            # Since session 12: per round, N threads against the sum of the N CPUs alone.
-            effs = [(x[7] * x[5], x[4]) for x in v if x[7] is not None]
-            eff = (f"; against the CPUs alone, per round: {min(effs)[0]:.2f}-{max(effs)[0]:.2f}x on equal CPUs, "
-                   f"{sum(e >= target for e, _ in effs)} of {len(effs)} cells >= {target}" if effs else "")
-            print(f"  {backend}: {min(x[0] for x in v):.2f}-{max(x[0] for x in v):.2f}x, "
+                     if any(x["probe"] is not None for x in v) else "no machine probe in this CSV (before session 11)")
+            equal = [x for x in v if x["equal"] is not None]
+            eff = (f"; against the CPUs alone, per round: {min(x['equal'] for x in equal):.2f}-"
+                   f"{max(x['equal'] for x in equal):.2f}x on equal CPUs, "
+                   f"{sum(x['equal'] >= target for x in equal)} of {len(equal)} cells >= {target}" if equal else "")
+            print(f"  {backend}: {min(x['scaling'] for x in v):.2f}-{max(x['scaling'] for x in v):.2f}x, "
                   f"{len(v) - len(below)} of {len(v)} cells >= {target}; {probe}{eff}")
-            for e, cell in effs:
-                if e < target:
-                    print(f"    {cell}: {e:.2f}x on equal CPUs")
-            for s, probe, full, n, cell, _, probe1, _ in below:
-                why = "" if probe != probe else f", probe {probe:.2f}" + (
-                    "" if probe1 != probe1 else f" (1-thread traces: {probe1:.2f})") + ", " + (
-                    f"{full:.2f}x over {n} such rounds" if full is not None else "no such round")
-                print(f"    {cell}: {s:.2f}x{why}")
+            for x in equal:
+                if x["equal"] < target:
+                    print(f"    {x['cell']}: {x['equal']:.2f}x on equal CPUs")
+            for x in below:
+                why = "" if x["probe"] is None else f", probe {x['probe']:.2f}" + (
+                    "" if x["probe1"] is None else f" (1-thread traces: {x['probe1']:.2f})") + ", " + (
+                    f"{x['full']:.2f}x over {x['full_rounds']} such rounds" if x["full"] is not None else "no such round")
+                print(f"    {x['cell']}: {x['scaling']:.2f}x{why}")
 
 
 if __name__ == "__main__":
