@@ -107,21 +107,34 @@ inline __m128 low4(__m128 x) { return x; }
 inline __m128 low4(__m256 x) { return _mm256_castps256_ps128(x); }
 #endif
 
-/// Four-lane leaf test. SSE2 is part of every x86-64, so all ISAs share this code (the
-/// wider files just encode it with VEX); -ffp-contract=off on every kernel file keeps
-/// the arithmetic that of triangle.h, so all ISAs and naive return the same t, u, v.
-/// Origin and t_min are the low lanes of the node test's broadcasts, so the wider ISAs
-/// keep one register for both.
+/// The leaf tests' per-ray constants, as rows of the widest vector the kernel file has:
+/// __m256 where it is compiled with AVX, so tri8 reads them whole and tri4 their low
+/// half. With __m128 rows, which the 8-lane tests widened per leaf, GCC 12 held the
+/// widened rows in registers across the traversal loop, and with the node test's ten
+/// rows they did not fit beside a leaf test's temporaries, even in AVX-512's 32: on
+/// entering every leaf it stored about 16 vectors to the stack and loaded them back on
+/// leaving, some 40 instructions per leaf visit. Now the AVX-512 kernel stores none there
+/// and the AVX2 kernel 7; per CBbunny camera ray (callgrind, AVX2) 773 -> 748
+/// instructions, of them stores 84 -> 63; one thread +1 % (RESULTS.md, session 13).
+/// Forcing the node test's rows to be read from memory too (an empty asm on the
+/// reference each iteration) removed the rest but cost 14-16 %.
+/// SSE2 is part of every x86-64, so all ISAs share the four-lane code (the wider files
+/// just encode it with VEX); -ffp-contract=off on every kernel file keeps the arithmetic
+/// that of triangle.h, so all ISAs and naive return the same t, u, v.
 struct LeafRay {
-    __m128 o[3], d[3], t_min;
+#ifdef __AVX__
+    using Row = __m256;
+#else
+    using Row = __m128;
+#endif
+    Row o[3], d[3], t_min;
     int kx, ky, kz;
-    __m128 sx, sy, sz;
-    template <class V>
-    PT_INLINE LeafRay(const Ray& r, const WatertightRay& wr, const BoxConstants<V>& box) {
-        for (int a = 0; a < 3; ++a) o[a] = low4(box.o[a]), d[a] = _mm_set1_ps(r.dir[a]);
-        t_min = low4(box.t_min);
+    Row sx, sy, sz;
+    PT_INLINE LeafRay(const Ray& r, const WatertightRay& wr) {
+        for (int a = 0; a < 3; ++a) o[a] = splat<Row>(r.org[a]), d[a] = splat<Row>(r.dir[a]);
+        t_min = splat<Row>(r.t_min);
         kx = wr.kx, ky = wr.ky, kz = wr.kz;
-        sx = _mm_set1_ps(wr.sx), sy = _mm_set1_ps(wr.sy), sz = _mm_set1_ps(wr.sz);
+        sx = splat<Row>(wr.sx), sy = splat<Row>(wr.sy), sz = splat<Row>(wr.sz);
     }
 };
 
@@ -252,7 +265,9 @@ PT_INLINE inline Lanes tri4_mt(const Block& b, const LeafRay& r, float t_max) {
     const __m128 p0[3] = {ld(b.p[0][0]), ld(b.p[0][1]), ld(b.p[0][2])};
     const __m128 e1[3] = {ld(b.p[1][0]), ld(b.p[1][1]), ld(b.p[1][2])};
     const __m128 e2[3] = {ld(b.p[2][0]), ld(b.p[2][1]), ld(b.p[2][2])};
-    return mt_lanes<Ops4>(p0, e1, e2, r.o, r.d, r.t_min, t_max);
+    const __m128 o[3] = {low4(r.o[0]), low4(r.o[1]), low4(r.o[2])};
+    const __m128 d[3] = {low4(r.d[0]), low4(r.d[1]), low4(r.d[2])};
+    return mt_lanes<Ops4>(p0, e1, e2, o, d, low4(r.t_min), t_max);
 }
 
 /// Woop's test over O::V's lanes; `row(k, a)` loads vertex k's axis-a row of the
@@ -307,9 +322,9 @@ PT_INLINE inline LanesOf<O> wt_lanes(const Row& row, const typename O::V (&o)[3]
 /// its double-precision retry of an edge function that rounds to exactly zero (done per
 /// lane, only for the rare lanes that need it).
 PT_INLINE inline Lanes tri4_wt(const Block& b, const LeafRay& r, float t_max) {
-    const __m128 o[3] = {r.o[r.kx], r.o[r.ky], r.o[r.kz]};
-    return wt_lanes<Ops4>([&](int k, int a) { return ld(b.p[k][a]); }, o, r.sx, r.sy, r.sz, r.t_min, r, filled(b),
-                          t_max);
+    const __m128 o[3] = {low4(r.o[r.kx]), low4(r.o[r.ky]), low4(r.o[r.kz])};
+    return wt_lanes<Ops4>([&](int k, int a) { return ld(b.p[k][a]); }, o, low4(r.sx), low4(r.sy), low4(r.sz),
+                          low4(r.t_min), r, filled(b), t_max);
 }
 
 #ifdef __AVX__
@@ -323,13 +338,10 @@ PT_INLINE inline Lanes8 tri8_mt(const Block& b0, const Block& b1, const LeafRay&
     const auto ld2 = [](const float* lo, const float* hi) {
         return _mm256_insertf128_ps(_mm256_castps128_ps256(_mm_load_ps(lo)), _mm_load_ps(hi), 1);
     };
-    const auto wide = [](__m128 x) { return _mm256_insertf128_ps(_mm256_castps128_ps256(x), x, 1); };
-    __m256 p0[3], e1[3], e2[3], o[3], d[3];
-    for (int a = 0; a < 3; ++a) {
+    __m256 p0[3], e1[3], e2[3];
+    for (int a = 0; a < 3; ++a)
         p0[a] = ld2(b0.p[0][a], b1.p[0][a]), e1[a] = ld2(b0.p[1][a], b1.p[1][a]), e2[a] = ld2(b0.p[2][a], b1.p[2][a]);
-        o[a] = wide(r.o[a]), d[a] = wide(r.d[a]);
-    }
-    return mt_lanes<Ops8>(p0, e1, e2, o, d, wide(r.t_min), t_max);
+    return mt_lanes<Ops8>(p0, e1, e2, r.o, r.d, r.t_min, t_max);
 }
 
 /// Woop's test on two blocks (or one twice, the caller masking the copy), as tri8_mt:
@@ -341,10 +353,9 @@ PT_INLINE inline Lanes8 tri8_wt(const Block& b0, const Block& b1, const LeafRay&
     const auto ld2 = [](const float* lo, const float* hi) {
         return _mm256_insertf128_ps(_mm256_castps128_ps256(_mm_load_ps(lo)), _mm_load_ps(hi), 1);
     };
-    const auto wide = [](__m128 x) { return _mm256_insertf128_ps(_mm256_castps128_ps256(x), x, 1); };
-    const __m256 o[3] = {wide(r.o[r.kx]), wide(r.o[r.ky]), wide(r.o[r.kz])};
-    return wt_lanes<Ops8>([&](int k, int a) { return ld2(b0.p[k][a], b1.p[k][a]); }, o, wide(r.sx), wide(r.sy),
-                          wide(r.sz), wide(r.t_min), r, filled(b0) | filled(b1) << 4, t_max);
+    const __m256 o[3] = {r.o[r.kx], r.o[r.ky], r.o[r.kz]};
+    return wt_lanes<Ops8>([&](int k, int a) { return ld2(b0.p[k][a], b1.p[k][a]); }, o, r.sx, r.sy, r.sz, r.t_min, r,
+                          filled(b0) | filled(b1) << 4, t_max);
 }
 #endif
 
@@ -367,7 +378,7 @@ PT_INLINE inline LanesOf<Ops16> tri16_mt(const Block& b0, const Block& b1, const
     };
     // The ray's rows are splats: any lane will do (and _mm512_broadcast_f32x4 draws a
     // false "may be used uninitialized" from GCC 12's own header).
-    const auto wide = [](__m128 x) { return _mm512_set1_ps(_mm_cvtss_f32(x)); };
+    const auto wide = [](__m256 x) { return _mm512_set1_ps(_mm256_cvtss_f32(x)); };
     __m512 p0[3], e1[3], e2[3], o[3], d[3];
     for (int a = 0; a < 3; ++a) {
         p0[a] = ld4(0, a), e1[a] = ld4(1, a), e2[a] = ld4(2, a);
@@ -507,7 +518,7 @@ bool traverse(const WideBvh& w, const Ray& ray_in, float& t_io, float& u_out, fl
     const Planes pl(ray);
     const WatertightRay wr = Test == TriangleTest::Watertight ? WatertightRay(ray.dir) : WatertightRay();
     const typename P::Box box(pl, ray.t_min);
-    const LeafRay lr(ray, wr, box);
+    const LeafRay lr(ray, wr);
     const Block* blocks = w.blocks.data();
 
     struct Entry {
@@ -660,7 +671,7 @@ bool occlude(const WideBvh& w, const Ray& ray_in, TraceStats& stats) {
     const Planes pl(ray);
     const WatertightRay wr = Test == TriangleTest::Watertight ? WatertightRay(ray.dir) : WatertightRay();
     const typename P::Box box(pl, ray.t_min);
-    const LeafRay lr(ray, wr, box);
+    const LeafRay lr(ray, wr);
     const Block* blocks = w.blocks.data();
     // P::push stores a whole vector of kWidth references; the slack keeps the last one
     // inside the arrays.
