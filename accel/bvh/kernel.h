@@ -109,15 +109,16 @@ inline __m128 low4(__m256 x) { return _mm256_castps256_ps128(x); }
 
 /// The leaf tests' per-ray constants, as rows of the widest vector the kernel file has:
 /// __m256 where it is compiled with AVX, so tri8 reads them whole and tri4 their low
-/// half. With __m128 rows, which the 8-lane tests widened per leaf, GCC 12 held the
-/// widened rows in registers across the traversal loop, and with the node test's ten
-/// rows they did not fit beside a leaf test's temporaries, even in AVX-512's 32: on
-/// entering every leaf it stored about 16 vectors to the stack and loaded them back on
-/// leaving, some 40 instructions per leaf visit. Now the AVX-512 kernel stores none there
-/// and the AVX2 kernel 7; per CBbunny camera ray (callgrind, AVX2) 773 -> 748
-/// instructions, of them stores 84 -> 63; one thread +1 % (RESULTS.md, session 13).
-/// Forcing the node test's rows to be read from memory too (an empty asm on the
-/// reference each iteration) removed the rest but cost 14-16 %.
+/// half. With __m128 rows, which the 8-lane tests widened per leaf, GCC 12 kept the
+/// widened rows live across the traversal loop, and beside the node test's ten rows
+/// they did not fit with a leaf test's temporaries, even in AVX-512's 32 registers: on
+/// entering every leaf it stored 12-17 registers to the stack and loaded them back on
+/// leaving, 35-40 instructions per leaf visit. Now the AVX-512 kernel stores none there
+/// and the AVX2 kernel 6 vectors. Per CBbunny camera ray (callgrind, AVX2): 773 -> 748
+/// instructions, of them stores 83 -> 62. One thread: AVX-512 +2.5 %, watertight +1.8 %,
+/// AVX2 and SSE2 unchanged (RESULTS.md, session 13). Forcing the node test's rows to be
+/// read from memory too (an empty asm on the reference every iteration) removed the
+/// remaining spills but cost 14-16 %.
 /// SSE2 is part of every x86-64, so all ISAs share the four-lane code (the wider files
 /// just encode it with VEX); -ffp-contract=off on every kernel file keeps the arithmetic
 /// that of triangle.h, so all ISAs and naive return the same t, u, v.
