@@ -21,6 +21,7 @@
 #include <vector>
 
 #include "benchmarks/pin.h"
+#include "benchmarks/scaling.h"
 
 namespace bench {
 
@@ -34,6 +35,13 @@ public:
         double t = 0;
         for (int k = 0; k < 3; ++k) t = k == 0 ? seconds(n) : std::min(t, seconds(n));
         iterations_ = std::max<long>(1 << 12, long(double(n) * 2e-3 / std::max(t, 1e-9)));
+        // About 1 ms of the issue loop per CPU, and a first best rate from a few readings
+        // (the best only rises: a CPU never issues faster than its core allows).
+        const auto t0 = std::chrono::steady_clock::now();
+        issue_loop(1 << 12);
+        const double ti = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+        issue_steps_ = std::max<long>(1 << 10, long(double(1 << 12) * 1e-3 / std::max(ti, 1e-9)));
+        for (int k = 0; k < 3; ++k) full_issue(int(cpus_.empty() ? 1 : cpus_.size()), 0.0);
     }
 
     /// The speed-up of `threads` threads running the same work at once over one thread
@@ -53,7 +61,45 @@ public:
         return sum;
     }
 
+    /// Instructions per second (in billions) one CPU issues on a register-only loop that
+    /// asks for more per cycle than a core dispatches: four integer and four vector add
+    /// chains, each step independent of the others' (~5.5 per cycle alone on the Zen 4
+    /// CI machine). Unlike scaling(), which divides two readings, this one is absolute, so
+    /// it sees what slows a CPU whatever the process does: another tenant's thread on the
+    /// core's other hardware thread. Session 13 (RESULTS.md): in the sets of a co-runner
+    /// experiment where our kernel traced below 0.85 of its speed, this loop, timed just
+    /// after it, was slow too in 40 of 61; a loop asking 2 per cycle never was, nor Embree.
+    double issue_rate(int slot) const {
+        pin_to(slot);
+        const auto t0 = std::chrono::steady_clock::now();
+        issue_loop(issue_steps_);
+        const double t = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+        unpin();
+        return double(issue_steps_) * kIssueOps * 1e-9 / std::max(t, 1e-9);
+    }
+
+    /// True when each of the first `threads` CPUs issues at >= `fraction` of the best rate
+    /// it has shown to this probe (at_full_issue); the readings go in `now` if given.
+    bool full_issue(int threads, double fraction, std::vector<double>* now = nullptr) const {
+        std::vector<double> r;
+        for (int i = 0; i < threads; ++i) r.push_back(issue_rate(i));
+        if (now) *now = r;
+        return at_full_issue(r, best_issue_, fraction);
+    }
+
 private:
+    static constexpr int kIssueOps = 64;  ///< instructions per issue_loop step
+    /// `steps` x 64 register-only instructions, eight independent chains of latency 1.
+    static void issue_loop(long steps) {
+#define PT_ISSUE8                                                                                    \
+    "add $1, %%r8\n\t add $1, %%r9\n\t add $1, %%r10\n\t add $1, %%r11\n\t paddd %%xmm8, %%xmm0\n\t " \
+    "paddd %%xmm8, %%xmm1\n\t paddd %%xmm8, %%xmm2\n\t paddd %%xmm8, %%xmm3\n\t"
+        for (long k = 0; k < steps; ++k)
+            __asm__ volatile(PT_ISSUE8 PT_ISSUE8 PT_ISSUE8 PT_ISSUE8 PT_ISSUE8 PT_ISSUE8 PT_ISSUE8 PT_ISSUE8 ::
+                                 : "r8", "r9", "r10", "r11", "xmm0", "xmm1", "xmm2", "xmm3", "xmm8");
+#undef PT_ISSUE8
+    }
+
     /// Twelve independent 4-wide multiply-then-add chains (SSE2, so any x86-64): enough in
     /// flight to keep a core's multiply pipes full, so a second hardware thread on the
     /// same core halves each thread's speed. (The first version, eight scalar chains,
@@ -108,6 +154,8 @@ private:
     cpu_set_t all_{};  ///< the process's CPUs at construction, restored after each probe
     std::vector<int> cpus_;
     long iterations_ = 0;
+    long issue_steps_ = 1 << 10;
+    mutable std::vector<double> best_issue_;  ///< per CPU slot, the highest issue rate seen
     static inline volatile float sink_ = 0;
 };
 

@@ -65,4 +65,20 @@ inline double efficiency_over_cpus_alone(const std::vector<double>& rates_n,
     return median(e);
 }
 
+/// Whether every CPU issues at full width now: `now[k]` is CPU k's issue rate this moment
+/// (MachineProbe::issue_rate), `best[k]` the highest it has shown (raised here when `now`
+/// beats it). A CPU whose core's other hardware thread is active issues ~25 % slower, and
+/// so does every kernel that asks for more instructions per cycle than half a core gives
+/// (session 13: our traversal, at ~4-5 per cycle, with it; Embree's, at ~2, not), while a
+/// scaling probe, which divides two readings that both suffer, cannot see it.
+inline bool at_full_issue(const std::vector<double>& now, std::vector<double>& best, double fraction) {
+    if (best.size() < now.size()) best.resize(now.size(), 0.0);
+    bool full = true;
+    for (size_t k = 0; k < now.size(); ++k) {
+        best[k] = std::max(best[k], now[k]);
+        full = full && now[k] >= fraction * best[k];
+    }
+    return full;
+}
+
 }  // namespace bench

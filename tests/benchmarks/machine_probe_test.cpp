@@ -7,6 +7,7 @@
 #include <sched.h>
 
 #include <cmath>
+#include <vector>
 
 #include "benchmarks/machine_probe.h"
 
@@ -33,6 +34,11 @@ TEST(MachineProbe, LeavesTheCallersCpusAsTheyWere) {
             EXPECT_GT(s, 0.0) << threads << " threads, pin " << pin;
             EXPECT_TRUE(same(current(), before)) << "affinity changed after " << threads << " threads, pin " << pin;
             EXPECT_EQ(bench::usable_cpus(), CPU_COUNT(&before));
+            std::vector<double> issue;
+            probe.full_issue(threads, 0.9, &issue);
+            ASSERT_EQ(issue.size(), size_t(threads));
+            for (double r : issue) EXPECT_GT(r, 0.0) << "issue rate, " << threads << " CPUs, pin " << pin;
+            EXPECT_TRUE(same(current(), before)) << "affinity changed by full_issue, " << threads << " CPUs, pin " << pin;
         }
     }
 }

@@ -54,3 +54,20 @@ TEST(EfficiencyOverCpusAlone, NeedsEveryCpuInTheRound) {
     // A CPU with fewer rounds: only the rounds every CPU has count.
     EXPECT_DOUBLE_EQ(bench::efficiency_over_cpus_alone({19.0, 10.0}, {{10.0, 10.0}, {10.0}}), 0.95);
 }
+
+TEST(AtFullIssue, ACpuBelowTheFractionOfItsBestFails) {
+    std::vector<double> best{20.0, 20.0};
+    EXPECT_TRUE(bench::at_full_issue({19.0, 18.5}, best, 0.9));
+    // CPU 1 at 0.75 of its best: the state in which a sibling hardware thread is active.
+    EXPECT_FALSE(bench::at_full_issue({19.5, 15.0}, best, 0.9));
+    EXPECT_EQ(best, (std::vector<double>{20.0, 20.0}));
+}
+
+TEST(AtFullIssue, ANewBestRaisesTheBarForLaterReadings) {
+    std::vector<double> best;  // grows to the CPUs read
+    EXPECT_TRUE(bench::at_full_issue({15.0}, best, 0.9));  // the first reading is the best so far
+    EXPECT_TRUE(bench::at_full_issue({21.0}, best, 0.9));
+    EXPECT_EQ(best, std::vector<double>{21.0});
+    // 15 passed when it was the best; against 21 it is a slow core.
+    EXPECT_FALSE(bench::at_full_issue({15.0}, best, 0.9));
+}
