@@ -1,7 +1,7 @@
 #!/bin/bash
-# thr.sh FIRST LAST : the thread study, runs FIRST..LAST, the issue's five scenes, waiting for cores
-# threads_raw/: the same with "--wait-for-cores 3" removed. threads_isa/ and threads_variants/: BACKENDS set
-# to the backends their summary.txt names.
+# thr.sh FIRST LAST : the thread study, runs FIRST..LAST, the issue's five scenes, waiting for cores.
+# threads_wait/ ran before 1d8c4cc (the scaling probe only), threads_issue_wait/ after it (probe and
+# issue rates); threads_nowait/: the same command with "--wait-for-cores 3" removed.
 OUT=${OUT:-/tmp/s13/thr}; mkdir -p $OUT
 S=/work/shared/scenes/cs184; B=/work/main/build/benchmarks/accel_bench
 for r in $(seq $1 $2); do
