@@ -2,24 +2,12 @@
 core (probe before < 1.4). Each row's rates relative to the same co-runner's median over
 the iterations on two cores (both probes >= 1.8). 'none' leaves vCPU 1 idle; the others
 run a co-runner there, which in those moments is the sibling hardware thread of ours."""
-import statistics as st,collections,sys
-it=[];cur=[]
-for line in open(sys.argv[1]):
-    w=line.split()
-    if w[0]=='probe':
-        a=[float(x) for x in w[1:4]]; b=[float(x) for x in w[5:8]]
-        it.append((st.median(a),st.median(b),cur)); cur=[]
-    else:
-        vals={}
-        for t in w[2:]:
-            p=t.rsplit(':',1); vals[p[0]]=float(p[1])
-        cur.append((w[1],vals))
-norm=collections.defaultdict(list)
-for a,b,c in it:
-    if a>=1.8 and b>=1.8:
-        for m,v in c:
-            for k,x in v.items(): norm[(m,k)].append(x)
-N={k:st.median(v) for k,v in norm.items()}
+import statistics as st,collections
+import os,sys
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", ".."))
+from corun_log import read_sets, two_core_medians
+it=read_sets(sys.argv[1])
+N=two_core_medians(it)
 keys=['custom:sah:fast:camera','embree:high:camera','custom:sah:fast:diffuse','embree:high:diffuse']
 print(f"{sum(a>=1.8 and b>=1.8 for a,b,_ in it)} iterations on two cores; columns: ours camera, Embree camera, ours diffuse, Embree diffuse")
 low=collections.defaultdict(list)

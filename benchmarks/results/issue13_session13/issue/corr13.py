@@ -1,15 +1,10 @@
 """corr13.py LOG: in exp13c.sh's sets on two cores, how often our kernel and the wide loop were slow
 (< 0.85 of their own medians) in the same row, against apart."""
-import statistics as st,collections,sys
-rows=[];cur=[];it=[]
-for line in open(sys.argv[1]):
-    w=line.split()
-    if w[0]=='probe':
-        a=[float(x) for x in w[1:4]]; b=[float(x) for x in w[5:8]]
-        if st.median(a)>=1.8 and st.median(b)>=1.8: rows+=cur
-        cur=[]
-    else:
-        cur.append((w[1],{t.rsplit(':',1)[0]:float(t.rsplit(':',1)[1]) for t in w[2:]}))
+import statistics as st,collections
+import os,sys
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", ".."))
+from corun_log import read_sets, two_core_medians
+rows=[r for a,b,c in read_sets(sys.argv[1]) if a>=1.8 and b>=1.8 for r in c]
 med={}
 for m in ['none','pause']:
     for k in rows[0][1]:

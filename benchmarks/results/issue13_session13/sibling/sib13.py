@@ -2,25 +2,13 @@
 (both probes < 1.4), each rate relative to the same variant+mode's median over sets on two cores
 (both probes >= 1.8). With a pause loop on vCPU 1 then, ours and Embree share a core with an
 active sibling thread; 'none' leaves it idle."""
-import statistics as st,collections,sys
-it=[];cur=[]
-for line in open(sys.argv[1]):
-    w=line.split()
-    if not w: continue
-    if w[0]=='probe':
-        a=[float(x) for x in w[1:4]]; b=[float(x) for x in w[5:8]]
-        it.append((st.median(a),st.median(b),cur)); cur=[]
-    else:
-        vals={}
-        for t in w[2:]:
-            p=t.rsplit(':',1); vals[p[0]]=float(p[1])
-        cur.append((w[1],vals))
+import statistics as st,collections
+import os,sys
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", ".."))
+from corun_log import read_sets, two_core_medians
+it=read_sets(sys.argv[1])
 two=[c for a,b,c in it if a>=1.8 and b>=1.8]; one=[c for a,b,c in it if a<1.4 and b<1.4]
-N=collections.defaultdict(list)
-for c in two:
-    for m,v in c:
-        for k,x in v.items(): N[(m,k)].append(x)
-N={k:st.median(v) for k,v in N.items()}
+N=two_core_medians(it)
 print(f"{len(two)} sets on two cores, {len(one)} on one core (of {len(it)})")
 for k,v in sorted(N.items()): print(f"  two-core median {k[0]:16s} {k[1]:28s} {v:6.2f}")
 R=collections.defaultdict(list)

@@ -1,20 +1,11 @@
 """slow13.py LOG: over sets on two cores (both probes >= 1.8), how often each kernel traced
 below 0.85 of its own median (the host's slow state), per variant and mode, and its median
 rate then."""
-import statistics as st,collections,sys
-it=[];cur=[]
-for line in open(sys.argv[1]):
-    w=line.split()
-    if not w: continue
-    if w[0]=='probe':
-        a=[float(x) for x in w[1:4]]; b=[float(x) for x in w[5:8]]
-        it.append((st.median(a),st.median(b),cur)); cur=[]
-    else:
-        vals={}
-        for t in w[2:]:
-            p=t.rsplit(':',1); vals[p[0]]=float(p[1])
-        cur.append((w[1],vals))
-two=[c for a,b,c in it if a>=1.8 and b>=1.8]
+import statistics as st,collections
+import os,sys
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", ".."))
+from corun_log import read_sets, two_core_medians
+two=[c for a,b,c in read_sets(sys.argv[1]) if a>=1.8 and b>=1.8]
 V=collections.defaultdict(list)
 for c in two:
     for m,v in c:
