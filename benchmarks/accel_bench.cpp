@@ -394,6 +394,7 @@ int main(int argc, char** argv) {
                     const int probed = c.threads > 1 ? c.threads : (max_threads > 1 ? max_threads : 0);
                     double before = probed > 0 ? probe.scaling(probed) : 0.0;
                     std::vector<double> issue;
+                    bool timed_out = false;  // timed anyway, on fewer or narrower cores
                     if (probed > 0 && wait_for_cores > 0) {
                         // On a shared host the machine gives N cores or fewer from one
                         // second to the next, and a core's other hardware thread may be
@@ -406,17 +407,19 @@ int main(int argc, char** argv) {
                             before = probe.scaling(probed);
                             full = probe.full_issue(probed, kFullIssue, &issue);
                         }
+                        timed_out = before < 0.9 * probed || !full;
                     }
                     const double mr = measure(*accels[c.backend], set, c.threads, 1, st, util, pin, c.first_cpu);
                     if (probed > 0) c.machine.push_back(std::min(before, probe.scaling(probed)));
                     c.rates.push_back(mr);
-                    std::fprintf(stderr, "[accel_bench] %s %s %s, %d thread%s%s, round %d: %.3f Mrays/s%s%s\n",
+                    std::fprintf(stderr, "[accel_bench] %s %s %s, %d thread%s%s, round %d: %.3f Mrays/s%s%s%s\n",
                                  name.c_str(), renderer::ray_kind_name(kind), specs[c.backend].label.c_str(),
                                  c.threads, c.threads > 1 ? "s" : "",
                                  c.first_cpu > 0 ? fmt::format(" alone on CPU {}", c.first_cpu).c_str() : "",
                                  round + 1, mr,
                                  probed > 0 ? fmt::format(", probe {:.2f}", c.machine.back()).c_str() : "",
-                                 issue.empty() ? "" : fmt::format(", issue {:.1f}", fmt::join(issue, "/")).c_str());
+                                 issue.empty() ? "" : fmt::format(", issue {:.1f}", fmt::join(issue, "/")).c_str(),
+                                 timed_out ? " (wait limit reached)" : "");
                     const double wall = double(set.rays.size()) / (mr * 1e6);
                     c.wall += wall;
                     c.cpu += util * wall;
