@@ -37,9 +37,7 @@ public:
         iterations_ = std::max<long>(1 << 12, long(double(n) * 2e-3 / std::max(t, 1e-9)));
         // About 1 ms of the issue loop per CPU, and a first best rate from a few readings
         // (the best only rises: a CPU never issues faster than its core allows).
-        const auto t0 = std::chrono::steady_clock::now();
-        issue_loop(1 << 12);
-        const double ti = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+        const double ti = elapsed([] { issue_loop(1 << 12); });
         issue_steps_ = std::max<long>(1 << 10, long(double(1 << 12) * 1e-3 / std::max(ti, 1e-9)));
         for (int k = 0; k < 3; ++k) full_issue(int(cpus_.empty() ? 1 : cpus_.size()), 0.0);
     }
@@ -71,9 +69,7 @@ public:
     /// after it, was slow too in 40 of 61; a loop asking 2 per cycle never was, nor Embree.
     double issue_rate(int slot) const {
         pin_to(slot);
-        const auto t0 = std::chrono::steady_clock::now();
-        issue_loop(issue_steps_);
-        const double t = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+        const double t = elapsed([this] { issue_loop(issue_steps_); });
         unpin();
         return double(issue_steps_) * kIssueOps * 1e-9 / std::max(t, 1e-9);
     }
@@ -123,10 +119,14 @@ private:
                                                _mm_add_ps(_mm_add_ps(a8, a9), _mm_add_ps(a10, a11))));
         return _mm_cvtss_f32(s);
     }
-    static double seconds(long n) {
+    template <class F>
+    static double elapsed(F&& f) {
         const auto t0 = std::chrono::steady_clock::now();
-        sink_ = sink_ + work(n);
+        f();
         return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    }
+    static double seconds(long n) {
+        return elapsed([n] { sink_ = sink_ + work(n); });
     }
     void pin_to(int slot) const {
         if (pin_ && !cpus_.empty()) pin_this_thread(cpus_[size_t(slot) % cpus_.size()]);

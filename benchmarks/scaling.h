@@ -69,7 +69,7 @@ inline double efficiency_over_cpus_alone(const std::vector<double>& rates_n,
 /// (MachineProbe::issue_rate), `best[k]` the highest it has shown (raised here when `now`
 /// beats it). A CPU whose core's other hardware thread is active issues ~25 % slower, and
 /// so does every kernel that asks for more instructions per cycle than half a core gives
-/// (session 13: our traversal, at ~4-5 per cycle, with it; Embree's, at ~2, not), while a
+/// (session 13: our traversal, at ~3.5-4 per cycle, with it; Embree's, at about half that, not), while a
 /// scaling probe, which divides two readings that both suffer, cannot see it.
 inline bool at_full_issue(const std::vector<double>& now, std::vector<double>& best, double fraction) {
     if (best.size() < now.size()) best.resize(now.size(), 0.0);
