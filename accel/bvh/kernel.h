@@ -56,16 +56,20 @@ constexpr float gamma_n(int n) { return (n * kUnitRoundoff) / (1 - n * kUnitRoun
 constexpr float kFarScale = 1.0f + 2.0f * gamma_n(4);
 
 
-/// Per-ray slab constants: inverse direction, and for each axis which row of the box is
+/// Per-ray slab constants: the origin, the negated inverse direction (BoxConstants says
+/// why negated; -1/d is -(1/d) bit for bit), and for each axis which row of the box is
 /// the near plane, picked by the sign bit so that -0 behaves like a negative direction.
-/// This specialises every box test to the ray's octant without a branch.
+/// This specialises every box test to the ray's octant without a branch. (A table of the
+/// eight octants' rows, indexed by a movmskps of the direction, took ~10 instructions
+/// off each ray but put a load before the first node's addresses: shadow rays 2-5 %
+/// slower; RESULTS.md, session 14.)
 struct Planes {
-    float org[3], inv[3];
+    float org[3], neg_inv[3];
     int near[3], far[3];
     PT_INLINE explicit Planes(const Ray& r) {
         for (int a = 0; a < 3; ++a) {
             org[a] = r.org[a];
-            inv[a] = 1.0f / r.dir[a];
+            neg_inv[a] = -1.0f / r.dir[a];
             const bool neg = std::signbit(r.dir[a]);
             near[a] = neg ? a + 3 : a;
             far[a] = neg ? a : a + 3;
@@ -83,23 +87,33 @@ template <>
 inline __m256 splat<__m256>(float x) { return _mm256_set1_ps(x); }
 #endif
 
-/// Per-ray constants of a node test over vectors V: origin, inverse direction for the
-/// near planes and, scaled by kFarScale, for the far ones, the near accumulator's start
-/// value and the near/far rows of Planes. (The far accumulator starts at the segment's
-/// end times kFarScale, splat per node: no constant.) Ten vectors; AVX2's kernel keeps
-/// some in memory operands, off the dependent chain.
+/// Per-ray constants of a node test over vectors V: origin, the negated inverse direction
+/// for the near planes and, scaled by kFarScale, for the far ones, the near accumulator's
+/// start value, the far one's (the closest hit so far times kFarScale, updated by limit()
+/// only when a hit shortens the segment, not splat per node) and the near/far rows of
+/// Planes. Negated, so that a slab distance is (o - b) * -inv: the node's row is then
+/// the subtraction's second operand, which x86 takes straight from memory, one
+/// instruction instead of a load and a subtraction (six per node test). The bits are
+/// (b - o) * inv's: IEEE negation is exact and subtraction antisymmetric, so o - b is
+/// -(b - o) and the two negations cancel in the product; only a zero distance (b = o)
+/// changes sign, and a zero never leaves the node test signed differently, because the
+/// max/min tree returns the accumulator on ties. (Per CBbunny camera ray, AVX2 callgrind:
+/// see RESULTS.md, session 14.)
 template <class V>
 struct BoxConstants {
-    V o[3], inv[3], inv_far[3], t_min;
+    V o[3], neg_inv[3], neg_inv_far[3], t_min, t_far;
     int nx, ny, nz, fx, fy, fz;
-    PT_INLINE BoxConstants(const Planes& p, float tmin) {
+    PT_INLINE BoxConstants(const Planes& p, float tmin, float tmax) {
         for (int a = 0; a < 3; ++a) {
-            o[a] = splat<V>(p.org[a]), inv[a] = splat<V>(p.inv[a]);
-            inv_far[a] = splat<V>(p.inv[a] * kFarScale);
+            o[a] = splat<V>(p.org[a]), neg_inv[a] = splat<V>(p.neg_inv[a]);
+            neg_inv_far[a] = splat<V>(p.neg_inv[a] * kFarScale);
         }
         t_min = splat<V>(tmin);
+        limit(tmax);
         nx = p.near[0], ny = p.near[1], nz = p.near[2], fx = p.far[0], fy = p.far[1], fz = p.far[2];
     }
+    /// The far accumulator's start for a segment ending at t.
+    PT_INLINE void limit(float t) { t_far = splat<V>(t * kFarScale); }
 };
 
 inline __m128 low4(__m128 x) { return x; }
@@ -486,9 +500,18 @@ PT_INLINE inline void prefetch_leaves(const Block* blocks, uint32_t hint) {
     for (; p < end; p += 64) _mm_prefetch(p, _MM_HINT_T0);
 }
 
-/// True when some primitive is hit in [ray.t_min, t], shrinking t as hits are found;
-/// `where` gets the block and lane of the closest (BvhBase::finish takes the ids and the
-/// normal from there, not from the slot map or the scene's arrays).
+/// The closest hit traverse found: its distance, barycentrics, and the block and lane
+/// of its primitive (BvhBase::finish takes the ids and the normal from there, not from
+/// the slot map or the scene's arrays); at.block is null when nothing was hit. Returned
+/// by value, not through four reference parameters, which GCC kept in registers across
+/// the whole traversal loop and so spilled the node test's row offsets instead.
+struct Closest {
+    float t, u, v;
+    BlockLane at;
+};
+
+/// The closest primitive hit in [ray.t_min, ray.t_max], shrinking the segment as hits
+/// are found.
 ///
 /// Counting (only when Count; the timed path is its own instantiation and counts
 /// nothing): nodes_visited = 1 per wide node whose child boxes are tested (the root's
@@ -500,26 +523,24 @@ PT_INLINE inline void prefetch_leaves(const Block* blocks, uint32_t hint) {
 /// start) measured 10-25 % of a shadow or diffuse ray on the course meshes, whose rays
 /// all start inside the scene box (RESULTS.md, session 5).
 template <class P, TriangleTest Test, bool Count, bool HasSpheres>
-bool traverse(const WideBvh& w, const Ray& ray_in, float& t_io, float& u_out, float& v_out, BlockLane& where,
-              TraceStats& stats) {
+Closest traverse(const WideBvh& w, const Ray& ray_in, TraceStats& stats) {
     const typename P::Node* nodes = node_array<typename P::Node>(w);
-    if (!nodes) return false;
-    // Local copies: through references every store to t could alias the ray and the
+    if (!nodes) return {};
+    // A local copy: through a reference every store to t could alias the ray and the
     // node data (all floats), forcing reloads in the innermost loop.
     const Ray ray = ray_in;
-    float t = t_io, u = 0.0f, v = 0.0f;
+    float t = ray.t_max, u = 0.0f, v = 0.0f;
     uint64_t boxes = 0, tests = 0;
     BlockLane at{};  // at.block stays null until a hit is found
     const auto finish = [&]() {
         if constexpr (Count) stats.nodes_visited += boxes, stats.prim_tests += tests;
-        if (!at.block) return false;
-        t_io = t, u_out = u, v_out = v, where = at;
-        return true;
+        return Closest{t, u, v, at};
     };
     const Planes pl(ray);
     const WatertightRay wr = Test == TriangleTest::Watertight ? WatertightRay(ray.dir) : WatertightRay();
-    const typename P::Box box(pl, ray.t_min);
+    typename P::Box box(pl, ray.t_min, t);
     const LeafRay lr(ray, wr);
+    float t_far = t * kFarScale;
     const Block* blocks = w.blocks.data();
 
     struct Entry {
@@ -583,6 +604,10 @@ bool traverse(const WideBvh& w, const Ray& ray_in, float& t_io, float& u_out, fl
                     if (tt[l] <= t) t = tt[l], u = uu[l], v = vv[l], at = {b, l};
                 } while (hit);
             }
+            // Once per leaf, not per hit lane or per node: the node test's and the pop's
+            // far limit follow the closest hit.
+            box.limit(t);
+            t_far = t * kFarScale;
         } else {
             prefetch_leaves(blocks, count);
             const auto& n = nodes[ref];
@@ -592,7 +617,7 @@ bool traverse(const WideBvh& w, const Ray& ray_in, float& t_io, float& u_out, fl
             _mm_prefetch(reinterpret_cast<const char*>(n.child), _MM_HINT_T0);
             if constexpr (Count) ++boxes;
             alignas(32) float dist[kWidth];
-            unsigned mask = P::test(n, box, t, dist);
+            unsigned mask = P::test(n, box, dist);
             if (mask) {
                 int i = __builtin_ctz(mask);
                 mask &= mask - 1;
@@ -639,7 +664,7 @@ bool traverse(const WideBvh& w, const Ray& ray_in, float& t_io, float& u_out, fl
         for (;;) {
             if (sp == 0) return finish();
             const Entry& e = stack[--sp];
-            if (e.t <= t * kFarScale) {  // the box test's own tolerance
+            if (e.t <= t_far) {  // the box test's own tolerance
                 ref = e.ref;
                 count = e.count;
                 break;
@@ -671,7 +696,7 @@ bool occlude(const WideBvh& w, const Ray& ray_in, TraceStats& stats) {
     };
     const Planes pl(ray);
     const WatertightRay wr = Test == TriangleTest::Watertight ? WatertightRay(ray.dir) : WatertightRay();
-    const typename P::Box box(pl, ray.t_min);
+    const typename P::Box box(pl, ray.t_min, t);
     const LeafRay lr(ray, wr);
     const Block* blocks = w.blocks.data();
     // P::push stores a whole vector of kWidth references; the slack keeps the last one
@@ -724,7 +749,7 @@ bool occlude(const WideBvh& w, const Ray& ray_in, TraceStats& stats) {
             _mm_prefetch(reinterpret_cast<const char*>(n.child), _MM_HINT_T0);  // as in traverse
             if constexpr (Count) ++boxes;
             alignas(32) float dist[kWidth];
-            unsigned mask = P::test(n, box, t, dist);
+            unsigned mask = P::test(n, box, dist);
             if (mask) {
                 // No branch on how many children were hit: P::nearest also finds the one
                 // lane of a one-bit mask (every hit lane's key is below the 0xFFFF of the
@@ -756,15 +781,12 @@ class Kernel final : public BvhBase {
 public:
     bool intersect(const Ray& ray, Hit& hit, TraceStats& stats) const override {
         ++stats.rays;
-        float t = ray.t_max, u = 0, v = 0;
-        BlockLane at{};
-        const bool found =
-            stats.counting ? (has_spheres_ ? traverse<P, Test, true, true>(wide_, ray, t, u, v, at, stats)
-                                           : traverse<P, Test, true, false>(wide_, ray, t, u, v, at, stats))
-            : has_spheres_ ? traverse<P, Test, false, true>(wide_, ray, t, u, v, at, stats)
-                           : traverse<P, Test, false, false>(wide_, ray, t, u, v, at, stats);
-        if (!found) return false;
-        finish(at, ray, t, u, v, hit);
+        const Closest c = stats.counting ? (has_spheres_ ? traverse<P, Test, true, true>(wide_, ray, stats)
+                                                         : traverse<P, Test, true, false>(wide_, ray, stats))
+                          : has_spheres_ ? traverse<P, Test, false, true>(wide_, ray, stats)
+                                         : traverse<P, Test, false, false>(wide_, ray, stats);
+        if (!c.at.block) return false;
+        finish(c.at, ray, c.t, c.u, c.v, hit);
         return true;
     }
     bool occluded(const Ray& ray, TraceStats& stats) const override {

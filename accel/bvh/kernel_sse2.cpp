@@ -12,15 +12,15 @@ namespace {
 /// Slab test of four child boxes given their near (n) and far (f) planes per axis;
 /// returns the hit mask, entry distances in dist. The operations of Node8::test (node8.h)
 /// in the same order, NaN handling included, so every ISA tests the same boxes.
-PT_INLINE inline unsigned test4(const __m128 n[3], const __m128 f[3], const BoxConstants<__m128>& r, __m128 vt, float* dist) {
-    const __m128 tnx = _mm_mul_ps(_mm_sub_ps(n[0], r.o[0]), r.inv[0]);
-    const __m128 tny = _mm_mul_ps(_mm_sub_ps(n[1], r.o[1]), r.inv[1]);
-    const __m128 tnz = _mm_mul_ps(_mm_sub_ps(n[2], r.o[2]), r.inv[2]);
-    const __m128 tfx = _mm_mul_ps(_mm_sub_ps(f[0], r.o[0]), r.inv_far[0]);
-    const __m128 tfy = _mm_mul_ps(_mm_sub_ps(f[1], r.o[1]), r.inv_far[1]);
-    const __m128 tfz = _mm_mul_ps(_mm_sub_ps(f[2], r.o[2]), r.inv_far[2]);
+PT_INLINE inline unsigned test4(const __m128 n[3], const __m128 f[3], const BoxConstants<__m128>& r, float* dist) {
+    const __m128 tnx = _mm_mul_ps(_mm_sub_ps(r.o[0], n[0]), r.neg_inv[0]);
+    const __m128 tny = _mm_mul_ps(_mm_sub_ps(r.o[1], n[1]), r.neg_inv[1]);
+    const __m128 tnz = _mm_mul_ps(_mm_sub_ps(r.o[2], n[2]), r.neg_inv[2]);
+    const __m128 tfx = _mm_mul_ps(_mm_sub_ps(r.o[0], f[0]), r.neg_inv_far[0]);
+    const __m128 tfy = _mm_mul_ps(_mm_sub_ps(r.o[1], f[1]), r.neg_inv_far[1]);
+    const __m128 tfz = _mm_mul_ps(_mm_sub_ps(r.o[2], f[2]), r.neg_inv_far[2]);
     const __m128 t0 = _mm_max_ps(_mm_max_ps(tnx, tny), _mm_max_ps(tnz, r.t_min));
-    const __m128 t1 = _mm_min_ps(_mm_min_ps(tfx, tfy), _mm_min_ps(tfz, vt));
+    const __m128 t1 = _mm_min_ps(_mm_min_ps(tfx, tfy), _mm_min_ps(tfz, r.t_far));
     _mm_store_ps(dist, t0);
     return unsigned(_mm_movemask_ps(_mm_cmple_ps(t0, t1)));
 }
@@ -31,13 +31,12 @@ struct Sse2 {
     static constexpr bool kPrefetchShadow = false;
     using Box = BoxConstants<__m128>;
     /// The eight child boxes as two 4-lane halves.
-    PT_INLINE static unsigned test(const WideNode& n, const Box& r, float t, float* dist) {
-        const __m128 vt = _mm_set1_ps(t * kFarScale);
+    PT_INLINE static unsigned test(const WideNode& n, const Box& r, float* dist) {
         unsigned mask = 0;
         for (int q = 0; q < kWidth; q += 4) {
             const __m128 near[3] = {_mm_load_ps(n.b[r.nx] + q), _mm_load_ps(n.b[r.ny] + q), _mm_load_ps(n.b[r.nz] + q)};
             const __m128 far[3] = {_mm_load_ps(n.b[r.fx] + q), _mm_load_ps(n.b[r.fy] + q), _mm_load_ps(n.b[r.fz] + q)};
-            mask |= test4(near, far, r, vt, dist + q) << q;
+            mask |= test4(near, far, r, dist + q) << q;
         }
         return mask;
     }
@@ -55,7 +54,7 @@ struct Sse2Q : Sse2 {
     using Node = QuantNode;
     static constexpr bool kPrefetch = true;
     static constexpr bool kPrefetchShadow = true;
-    PT_INLINE static unsigned test(const QuantNode& n, const Box& r, float t, float* dist) {
+    PT_INLINE static unsigned test(const QuantNode& n, const Box& r, float* dist) {
         __m128 s[3], org[3];
         for (int a = 0; a < 3; ++a) {
             float step;
@@ -72,8 +71,7 @@ struct Sse2Q : Sse2 {
             lo[k] = _mm_add_ps(_mm_mul_ps(_mm_cvtepi32_ps(_mm_unpacklo_epi16(w, zero)), s[a]), org[a]);
             hi[k] = _mm_add_ps(_mm_mul_ps(_mm_cvtepi32_ps(_mm_unpackhi_epi16(w, zero)), s[a]), org[a]);
         }
-        const __m128 vt = _mm_set1_ps(t * kFarScale);
-        const unsigned mask = test4(lo, lo + 3, r, vt, dist) | test4(hi, hi + 3, r, vt, dist + 4) << 4;
+        const unsigned mask = test4(lo, lo + 3, r, dist) | test4(hi, hi + 3, r, dist + 4) << 4;
         return mask & n.valid;
     }
 };

@@ -26,9 +26,10 @@ struct Node8 {
     static constexpr bool kPrefetchShadow = false;
     using Box = BoxConstants<__m256>;
     /// The subtract-then-multiply form (not an FMA of precomputed org*inv): its
-    /// roundings are what the far-distance scale (kernel.h, kFarScale) is proven for.
-    /// The distances reduce as a tree, two max (min) levels instead of three in a row,
-    /// and the far scale is folded into inv_far: by count, about 3 of the ~40 cycles from
+    /// roundings are what the far-distance scale (kernel.h, kFarScale) is proven for;
+    /// written (o - b) * -inv, the same bits, so that the row is a memory operand
+    /// (kernel.h, BoxConstants). The distances reduce as a tree, two max (min) levels
+    /// instead of three in a row, and the far scale is folded into neg_inv_far: by count, about 3 of the ~40 cycles from
     /// a node's load to its child's on the course meshes (shadow and diffuse +2 to +4 %,
     /// 5M sphere +2 to +9 %; RESULTS.md, session 9). NaN (0 * inf: a zero direction
     /// component, the origin on that plane): vmaxps/vminps return their second operand
@@ -36,15 +37,16 @@ struct Node8 {
     /// second pair, so that pair is never NaN, and the root returns it when the first
     /// pair is: t0 and t1 are never NaN. A NaN in y drops x's distance too, which only
     /// widens [t0, t1]: no box the ray enters is culled.
-    PT_INLINE static unsigned test(const WideNode& n, const Box& r, float t, float* dist) {
-        const __m256 tnx = _mm256_mul_ps(_mm256_sub_ps(_mm256_load_ps(n.b[r.nx]), r.o[0]), r.inv[0]);
-        const __m256 tny = _mm256_mul_ps(_mm256_sub_ps(_mm256_load_ps(n.b[r.ny]), r.o[1]), r.inv[1]);
-        const __m256 tnz = _mm256_mul_ps(_mm256_sub_ps(_mm256_load_ps(n.b[r.nz]), r.o[2]), r.inv[2]);
-        const __m256 tfx = _mm256_mul_ps(_mm256_sub_ps(_mm256_load_ps(n.b[r.fx]), r.o[0]), r.inv_far[0]);
-        const __m256 tfy = _mm256_mul_ps(_mm256_sub_ps(_mm256_load_ps(n.b[r.fy]), r.o[1]), r.inv_far[1]);
-        const __m256 tfz = _mm256_mul_ps(_mm256_sub_ps(_mm256_load_ps(n.b[r.fz]), r.o[2]), r.inv_far[2]);
+    PT_INLINE static unsigned test(const WideNode& n, const Box& r, float* dist) {
+        const auto slab = [&](int row, int a, __m256 neg_inv) {
+            return _mm256_mul_ps(_mm256_sub_ps(r.o[a], _mm256_load_ps(n.b[row])), neg_inv);
+        };
+        const __m256 tnx = slab(r.nx, 0, r.neg_inv[0]), tny = slab(r.ny, 1, r.neg_inv[1]);
+        const __m256 tnz = slab(r.nz, 2, r.neg_inv[2]);
+        const __m256 tfx = slab(r.fx, 0, r.neg_inv_far[0]), tfy = slab(r.fy, 1, r.neg_inv_far[1]);
+        const __m256 tfz = slab(r.fz, 2, r.neg_inv_far[2]);
         const __m256 t0 = _mm256_max_ps(_mm256_max_ps(tnx, tny), _mm256_max_ps(tnz, r.t_min));
-        const __m256 t1 = _mm256_min_ps(_mm256_min_ps(tfx, tfy), _mm256_min_ps(tfz, _mm256_set1_ps(t * kFarScale)));
+        const __m256 t1 = _mm256_min_ps(_mm256_min_ps(tfx, tfy), _mm256_min_ps(tfz, r.t_far));
         _mm256_store_ps(dist, t0);
         return PT_NODE8_MASK(t0, t1);
     }
@@ -104,7 +106,7 @@ struct QNode8 : Node8 {
     using Node = QuantNode;
     static constexpr bool kPrefetch = true;
     static constexpr bool kPrefetchShadow = true;
-    PT_INLINE static unsigned test(const QuantNode& n, const Box& r, float t, float* dist) {
+    PT_INLINE static unsigned test(const QuantNode& n, const Box& r, float* dist) {
         // The grid steps: each biased exponent byte shifted into a float's exponent
         // field (lane 3 holds `valid` and is not used).
         int32_t e;
@@ -112,16 +114,18 @@ struct QNode8 : Node8 {
         const __m128 s4 = _mm_castsi128_ps(_mm_slli_epi32(_mm_cvtepu8_epi32(_mm_cvtsi32_si128(e)), 23));
         const __m256 s[3] = {_mm256_broadcastss_ps(s4), _mm256_broadcastss_ps(_mm_shuffle_ps(s4, s4, 0x55)),
                              _mm256_broadcastss_ps(_mm_shuffle_ps(s4, s4, 0xAA))};
-        const auto slab = [&](int row, int a, __m256 inv) {
+        const auto slab = [&](int row, int a, __m256 neg_inv) {
             const __m128i q8 = _mm_loadl_epi64(reinterpret_cast<const __m128i*>(n.q[row]));
             const __m256 b = _mm256_fmadd_ps(_mm256_cvtepi32_ps(_mm256_cvtepu8_epi32(q8)), s[a],
                                              _mm256_broadcast_ss(&n.origin[a]));
-            return _mm256_mul_ps(_mm256_sub_ps(b, r.o[a]), inv);
+            return _mm256_mul_ps(_mm256_sub_ps(r.o[a], b), neg_inv);
         };
-        const __m256 tnx = slab(r.nx, 0, r.inv[0]), tny = slab(r.ny, 1, r.inv[1]), tnz = slab(r.nz, 2, r.inv[2]);
-        const __m256 tfx = slab(r.fx, 0, r.inv_far[0]), tfy = slab(r.fy, 1, r.inv_far[1]), tfz = slab(r.fz, 2, r.inv_far[2]);
+        const __m256 tnx = slab(r.nx, 0, r.neg_inv[0]), tny = slab(r.ny, 1, r.neg_inv[1]);
+        const __m256 tnz = slab(r.nz, 2, r.neg_inv[2]);
+        const __m256 tfx = slab(r.fx, 0, r.neg_inv_far[0]), tfy = slab(r.fy, 1, r.neg_inv_far[1]);
+        const __m256 tfz = slab(r.fz, 2, r.neg_inv_far[2]);
         const __m256 t0 = _mm256_max_ps(_mm256_max_ps(tnx, tny), _mm256_max_ps(tnz, r.t_min));
-        const __m256 t1 = _mm256_min_ps(_mm256_min_ps(tfx, tfy), _mm256_min_ps(tfz, _mm256_set1_ps(t * kFarScale)));
+        const __m256 t1 = _mm256_min_ps(_mm256_min_ps(tfx, tfy), _mm256_min_ps(tfz, r.t_far));
         _mm256_store_ps(dist, t0);
         return PT_NODE8_MASK(t0, t1) & n.valid;
     }
