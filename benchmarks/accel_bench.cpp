@@ -41,6 +41,8 @@ using Clock = std::chrono::steady_clock;
 /// The slow state costs a full-width loop 23-29 % (session 13); readings of an idle core
 /// scatter by a few percent.
 constexpr double kFullIssue = 0.9;
+/// --wait-for-cores: how many times a round that ended below full issue is timed again.
+constexpr int kRetimes = 2;
 
 [[noreturn]] void fail(const std::string& m) { tools::fail("accel_bench", m); }
 
@@ -233,7 +235,9 @@ int main(int argc, char** argv) {
                    "Before each trace of a study with N > 1 threads (its 1-thread traces too), wait up to "
                    "SECONDS for the machine probe to read >= 0.9 N (the host giving N cores) and each of "
                    "the N CPUs to issue instructions at >= 0.9 of the best rate it has shown (no other "
-                   "thread on its core; default 0: time at once). Rows still report the raw median")
+                   "thread on its core; default 0: time at once); a round after which some CPU issues "
+                   "below that is timed again, at most twice. Rows report the median of the kept rounds; "
+                   "stderr shows the rounds timed again")
         ->check(CLI::Range(0.0, 60.0));
     tools::parse_or_exit(app, argc, argv, "accel_bench");
     const bool pin = !no_pin;
@@ -392,10 +396,13 @@ int main(int argc, char** argv) {
                     // hardware thread is busy runs slower, which inflates the scaling
                     // measured against it (session 12: 2.2-2.5x "scalings" of course meshes).
                     const int probed = c.threads > 1 ? c.threads : (max_threads > 1 ? max_threads : 0);
-                    double before = probed > 0 ? probe.scaling(probed) : 0.0;
-                    std::vector<double> issue;
+                    const bool waiting = probed > 0 && wait_for_cores > 0;
+                    double before = 0.0;
+                    std::vector<double> issue, after;
                     bool timed_out = false;  // timed anyway, on fewer or narrower cores
-                    if (probed > 0 && wait_for_cores > 0) {
+                    const auto wait = [&] {
+                        before = probed > 0 ? probe.scaling(probed) : 0.0;
+                        if (!waiting) return;
                         // On a shared host the machine gives N cores or fewer from one
                         // second to the next, and a core's other hardware thread may be
                         // another tenant's (machine_probe.h); wait for N cores of full
@@ -408,17 +415,35 @@ int main(int argc, char** argv) {
                             full = probe.full_issue(probed, kFullIssue, &issue);
                         }
                         timed_out = before < 0.9 * probed || !full;
-                    }
-                    const double mr = measure(*accels[c.backend], set, c.threads, 1, st, util, pin, c.first_cpu);
+                    };
+                    const std::string label = fmt::format(
+                        "[accel_bench] {} {} {}, {} thread{}{}, round {}", name, renderer::ray_kind_name(kind),
+                        specs[c.backend].label, c.threads, c.threads > 1 ? "s" : "",
+                        c.first_cpu > 0 ? fmt::format(" alone on CPU {}", c.first_cpu) : "", round + 1);
+                    double last = 0;
+                    const auto trace = [&] {
+                        last = measure(*accels[c.backend], set, c.threads, 1, st, util, pin, c.first_cpu);
+                        return last;
+                    };
+                    // Waiting, each CPU's issue rate is read after the trace too, and a
+                    // round that ended on a narrower core is timed again (bench::timed_round).
+                    const auto full_after = [&] {
+                        if (!waiting) return true;
+                        const bool full = probe.full_issue(probed, kFullIssue, &after);
+                        if (!full)
+                            std::fprintf(stderr, "%s: %.3f Mrays/s, issue %s, after %s: timed again\n",
+                                         label.c_str(), last, fmt::format("{:.1f}", fmt::join(issue, "/")).c_str(),
+                                         fmt::format("{:.1f}", fmt::join(after, "/")).c_str());
+                        return full;
+                    };
+                    std::vector<double> discarded;
+                    const double mr = bench::timed_round(wait, trace, full_after, waiting ? kRetimes : 0, discarded);
                     if (probed > 0) c.machine.push_back(std::min(before, probe.scaling(probed)));
                     c.rates.push_back(mr);
-                    std::fprintf(stderr, "[accel_bench] %s %s %s, %d thread%s%s, round %d: %.3f Mrays/s%s%s%s\n",
-                                 name.c_str(), renderer::ray_kind_name(kind), specs[c.backend].label.c_str(),
-                                 c.threads, c.threads > 1 ? "s" : "",
-                                 c.first_cpu > 0 ? fmt::format(" alone on CPU {}", c.first_cpu).c_str() : "",
-                                 round + 1, mr,
+                    std::fprintf(stderr, "%s: %.3f Mrays/s%s%s%s%s\n", label.c_str(), mr,
                                  probed > 0 ? fmt::format(", probe {:.2f}", c.machine.back()).c_str() : "",
                                  issue.empty() ? "" : fmt::format(", issue {:.1f}", fmt::join(issue, "/")).c_str(),
+                                 after.empty() ? "" : fmt::format(", after {:.1f}", fmt::join(after, "/")).c_str(),
                                  timed_out ? " (wait limit reached)" : "");
                     const double wall = double(set.rays.size()) / (mr * 1e6);
                     c.wall += wall;

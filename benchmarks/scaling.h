@@ -81,4 +81,21 @@ inline bool at_full_issue(const std::vector<double>& now, std::vector<double>& b
     return full;
 }
 
+/// One timed round of a study that waits for its cores: `wait()` waits (within its own
+/// limit) for N cores of full width, `trace()` times the round and returns its rate,
+/// `full_after()` reads whether every CPU still issued at full width right after it.
+/// The wait before a trace cannot see a sibling hardware thread that starts during it
+/// (session 13: the one miss left with waiting began inside the traces), the reading
+/// after can: a round that ends on a narrower core is timed again, at most `retimes`
+/// times, the last attempt kept whatever it reads. The rates set aside go to `discarded`.
+template <class Wait, class Trace, class Check>
+double timed_round(Wait&& wait, Trace&& trace, Check&& full_after, int retimes, std::vector<double>& discarded) {
+    for (int attempt = 0;; ++attempt) {
+        wait();
+        const double rate = trace();
+        if (full_after() || attempt >= retimes) return rate;
+        discarded.push_back(rate);
+    }
+}
+
 }  // namespace bench

@@ -71,3 +71,40 @@ TEST(AtFullIssue, ANewBestRaisesTheBarForLaterReadings) {
     // 15 passed when it was the best; against 21 it is a slow core.
     EXPECT_FALSE(bench::at_full_issue({15.0}, best, 0.9));
 }
+
+TEST(TimedRound, ARoundEndingOnFullCoresIsKeptAtOnce) {
+    int waits = 0, traces = 0, checks = 0;
+    std::vector<double> discarded;
+    const double rate = bench::timed_round([&] { ++waits; }, [&] { return 10.0 + ++traces; },
+                                           [&] { return ++checks > 0; }, 2, discarded);
+    EXPECT_EQ(rate, 11.0);
+    EXPECT_EQ(waits, 1);
+    EXPECT_EQ(traces, 1);
+    EXPECT_EQ(checks, 1);
+    EXPECT_TRUE(discarded.empty());
+}
+
+TEST(TimedRound, ARoundEndingOnANarrowCoreIsTimedAgainAfterAnotherWait) {
+    int waits = 0, traces = 0, checks = 0;
+    std::vector<double> discarded;
+    // The first trace ends with a CPU below full issue, the second on full cores.
+    const double rate = bench::timed_round([&] { ++waits; }, [&] { return 10.0 * ++traces; },
+                                           [&] { return ++checks == 2; }, 2, discarded);
+    EXPECT_EQ(rate, 20.0);
+    EXPECT_EQ(waits, 2);
+    EXPECT_EQ(traces, 2);
+    EXPECT_EQ(discarded, std::vector<double>{10.0});
+}
+
+TEST(TimedRound, TheLastAttemptIsKeptWhateverItReads) {
+    int traces = 0;
+    std::vector<double> discarded;
+    const double rate = bench::timed_round([] {}, [&] { return double(++traces); }, [] { return false; }, 2, discarded);
+    EXPECT_EQ(rate, 3.0);  // one round and two more attempts, never more
+    EXPECT_EQ(discarded, (std::vector<double>{1.0, 2.0}));
+    // No retimes allowed: the first trace is the round's, read as it may.
+    discarded.clear();
+    traces = 0;
+    EXPECT_EQ(bench::timed_round([] {}, [&] { return double(++traces); }, [] { return false; }, 0, discarded), 1.0);
+    EXPECT_TRUE(discarded.empty());
+}
