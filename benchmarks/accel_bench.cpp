@@ -420,31 +420,33 @@ int main(int argc, char** argv) {
                         "[accel_bench] {} {} {}, {} thread{}{}, round {}", name, renderer::ray_kind_name(kind),
                         specs[c.backend].label, c.threads, c.threads > 1 ? "s" : "",
                         c.first_cpu > 0 ? fmt::format(" alone on CPU {}", c.first_cpu) : "", round + 1);
-                    double last = 0;
                     const auto trace = [&] {
-                        last = measure(*accels[c.backend], set, c.threads, 1, st, util, pin, c.first_cpu);
-                        return last;
+                        return measure(*accels[c.backend], set, c.threads, 1, st, util, pin, c.first_cpu);
                     };
                     // Waiting, each CPU's issue rate is read after the trace too, and a
                     // round that ended on a narrower core is timed again (bench::timed_round).
+                    std::vector<std::string> narrow;  // the readings of each attempt that failed the check
                     const auto full_after = [&] {
                         if (!waiting) return true;
                         const bool full = probe.full_issue(probed, kFullIssue, &after);
                         if (!full)
-                            std::fprintf(stderr, "%s: %.3f Mrays/s, issue %s, after %s: timed again\n",
-                                         label.c_str(), last, fmt::format("{:.1f}", fmt::join(issue, "/")).c_str(),
-                                         fmt::format("{:.1f}", fmt::join(after, "/")).c_str());
+                            narrow.push_back(fmt::format("issue {:.1f}, after {:.1f}", fmt::join(issue, "/"),
+                                                         fmt::join(after, "/")));
                         return full;
                     };
                     std::vector<double> discarded;
                     const double mr = bench::timed_round(wait, trace, full_after, waiting ? kRetimes : 0, discarded);
+                    for (size_t k = 0; k < discarded.size(); ++k)
+                        std::fprintf(stderr, "%s: %.3f Mrays/s, %s: timed again\n", label.c_str(), discarded[k],
+                                     narrow[k].c_str());
                     if (probed > 0) c.machine.push_back(std::min(before, probe.scaling(probed)));
                     c.rates.push_back(mr);
-                    std::fprintf(stderr, "%s: %.3f Mrays/s%s%s%s%s\n", label.c_str(), mr,
+                    std::fprintf(stderr, "%s: %.3f Mrays/s%s%s%s%s%s\n", label.c_str(), mr,
                                  probed > 0 ? fmt::format(", probe {:.2f}", c.machine.back()).c_str() : "",
                                  issue.empty() ? "" : fmt::format(", issue {:.1f}", fmt::join(issue, "/")).c_str(),
                                  after.empty() ? "" : fmt::format(", after {:.1f}", fmt::join(after, "/")).c_str(),
-                                 timed_out ? " (wait limit reached)" : "");
+                                 timed_out ? " (wait limit reached)" : "",
+                                 narrow.size() > discarded.size() ? " (below full issue after it: the last attempt, kept)" : "");
                     const double wall = double(set.rays.size()) / (mr * 1e6);
                     c.wall += wall;
                     c.cpu += util * wall;
