@@ -96,9 +96,11 @@ inline __m256 splat<__m256>(float x) { return _mm256_set1_ps(x); }
 /// instruction instead of a load and a subtraction (six per node test). The bits are
 /// (b - o) * inv's: IEEE negation is exact and subtraction antisymmetric, so o - b is
 /// -(b - o) and the two negations cancel in the product; only a zero distance (b = o)
-/// changes sign, and a zero never leaves the node test signed differently, because the
-/// max/min tree returns the accumulator on ties. (Per CBbunny camera ray, AVX2 callgrind:
-/// see RESULTS.md, session 14.)
+/// changes sign. That sign reaches no result: comparisons treat -0 as +0, and the entry
+/// distance t0 can be a zero slab distance only when it exceeds t_min, so never for the
+/// t_min >= 0 of every ray here (for a negative t_min, an occlusion ray could order its
+/// children differently by order_key, with the same answer). (Per CBbunny camera ray,
+/// AVX2 callgrind: see RESULTS.md, session 14.)
 template <class V>
 struct BoxConstants {
     V o[3], neg_inv[3], neg_inv_far[3], t_min, t_far;
