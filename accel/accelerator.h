@@ -131,6 +131,10 @@ std::unique_ptr<Accelerator> create_accelerator(const std::string& name,
                                                 std::span<const GeometryView> geometry,
                                                 const AccelOptions& options);
 
+/// Whether `name` names a backend a tool may pass to create_accelerator: one of
+/// available_backends(), or "plugin:PATH[:OPTIONS]" (accel/plugin/README.md).
+bool is_backend_name(const std::string& name);
+
 /// Backends compiled into this build, in a stable order.
 std::vector<std::string> available_backends();
 

@@ -15,6 +15,13 @@ std::vector<std::string> available_backends() {
     return names;
 }
 
+bool is_backend_name(const std::string& name) {
+    if (name.rfind("plugin:", 0) == 0) return name.size() > 7;
+    for (const std::string& b : available_backends())
+        if (b == name) return true;
+    return false;
+}
+
 std::unique_ptr<Accelerator> create_accelerator(const std::string& name,
                                                 std::span<const GeometryView> geometry,
                                                 const AccelOptions& options) {
