@@ -1,6 +1,6 @@
 // The machine's own N-thread scaling, measured beside each timed N-thread cell.
 //
-// Found in session 11 (RESULTS.md): on the 2-vCPU CI machine a loop of register-only
+// Why (benchmarks/RESULTS.md, "Thread scaling"): on the 2-vCPU CI machine a loop of register-only
 // multiply-adds, with no memory traffic and nothing shared, scales 1.0x to 2.6x from one
 // thread to two, varying from one second to the next. The host now and then runs both
 // vCPUs on the two hardware threads of one core (or takes one away), and no kernel can
@@ -64,7 +64,7 @@ public:
     /// chains, each step independent of the others' (~5.5 per cycle alone on the Zen 4
     /// CI machine). Unlike scaling(), which divides two readings, this one is absolute, so
     /// it sees what slows a CPU whatever the process does: another tenant's thread on the
-    /// core's other hardware thread. Session 13 (RESULTS.md): in the sets of a co-runner
+    /// core's other hardware thread. Measured (accel/DECISIONS.md, "sibling thread's cost"): in the sets of a co-runner
     /// experiment where our kernel traced below 0.85 of its speed, this loop, timed just
     /// after it, was slow too in 40 of 61; a loop asking 2 per cycle never was, nor Embree.
     double issue_rate(int slot) const {

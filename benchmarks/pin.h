@@ -1,11 +1,11 @@
 // Pins the threads of a timed TBB arena, one CPU each, for the duration of the arena's
-// work. Measured on the 2-vCPU CI machine (RESULTS.md, session 5): an unpinned
+// work. Measured on the 2-vCPU CI machine (accel/DECISIONS.md, "pinned timing"): an unpinned
 // single-threaded trace is now and then moved between the vCPUs, and every move costs
 // a refill of the tree from the other core's caches; our kernel's cells then read 15-40 %
 // slow in some processes and not in others, Embree's 2-5 %. Pinned, both backends run
 // at their fast, repeatable speed, so the ratio compares kernels, not the scheduler.
 //
-// Pinning does not remove a second effect, found in session 6: for minutes at a time one
+// Pinning does not remove a second effect: for minutes at a time one
 // vCPU can run the same code much slower than the other, as when the physical core's
 // other hardware thread is busy with another tenant's work. Measured pinned, in
 // alternating processes: our kernel alone on the second vCPU at 0.65-0.70 of the first

@@ -46,7 +46,7 @@ inline FullRoundScaling scaling_over_full_rounds(const std::vector<double>& rate
 /// sum of the rates one thread reached alone on each of the N CPUs in that round
 /// (`alone[k][r]`: CPU k, round r; CPU 0's is the 1-thread cell), median over the rounds
 /// that have all N; 0 if none. On a shared host one vCPU can run a kernel 30 % slower than
-/// the other for seconds (session 12: its core's other hardware thread busy with work the
+/// the other for seconds (measured: its core's other hardware thread busy with work the
 /// register-only probe does not feel), and no code can then reach N times the first CPU;
 /// against the sum it can still reach 1. N x this efficiency is the scaling on N equal CPUs.
 inline double efficiency_over_cpus_alone(const std::vector<double>& rates_n,
@@ -69,7 +69,8 @@ inline double efficiency_over_cpus_alone(const std::vector<double>& rates_n,
 /// (MachineProbe::issue_rate), `best[k]` the highest it has shown (raised here when `now`
 /// beats it). A CPU whose core's other hardware thread is active issues ~25 % slower, and
 /// so does every kernel that asks for more instructions per cycle than half a core gives
-/// (session 13: our traversal, at ~3.5-4 per cycle, with it; Embree's, at about half that, not), while a
+/// (our traversal, at ~3.5-4 per cycle, with it; Embree's, at about half that, not:
+/// accel/DECISIONS.md, "sibling thread's cost"), while a
 /// scaling probe, which divides two readings that both suffer, cannot see it.
 inline bool at_full_issue(const std::vector<double>& now, std::vector<double>& best, double fraction) {
     if (best.size() < now.size()) best.resize(now.size(), 0.0);
@@ -85,7 +86,7 @@ inline bool at_full_issue(const std::vector<double>& now, std::vector<double>& b
 /// limit) for N cores of full width, `trace()` times the round and returns its rate,
 /// `full_after()` reads whether every CPU still issued at full width right after it.
 /// The wait before a trace cannot see a sibling hardware thread that starts during it
-/// (session 13: the one miss left with waiting began inside the traces), the reading
+/// (the one miss left when only the wait before was checked began inside a trace), the reading
 /// after can: a round that ends on a narrower core is timed again, at most `retimes`
 /// times, the last attempt kept whatever it reads. The rates set aside go to `discarded`.
 template <class Wait, class Trace, class Check>

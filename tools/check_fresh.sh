@@ -1,8 +1,8 @@
 #!/usr/bin/env bash
 # The fresh-machine check: run the README's two quick-start commands, exactly as written,
 # in a minimal Debian 12 root that has nothing but what Debian installs by default
-# (`mmdebstrap --variant=apt`: essential packages plus apt). CI runs on the machine a
-# session worked on, where packages installed by hand hide a missing install step; this
+# (`mmdebstrap --variant=apt`: essential packages plus apt). CI runs on a machine
+# that developers worked on, where packages installed by hand hide a missing install step; this
 # check cannot be fooled that way. It is not part of the test suite (it downloads and
 # installs about 1 GB of packages and builds from scratch: 20-30 minutes on 2 cores).
 #

@@ -38,7 +38,7 @@ public:
     /// centre), bit for bit what finish_hit computes from the scene's arrays, without
     /// their cache misses: on the 5M sphere those arrays are ~90 MB, and reading a hit
     /// triangle's indices and vertices there cost ~1.5 L2 misses per camera ray
-    /// (callgrind; RESULTS.md, session 5).
+    /// (callgrind; accel/DECISIONS.md, "hit data from the leaf block").
     void finish(BlockLane at, const Ray& ray, float t, float u, float v, Hit& hit) const;
 
     std::vector<GeometryView> geometry_;

@@ -4,7 +4,7 @@
 // Built in parallel (subtrees of >= 4096 primitives split across tasks, binning of
 // >= 32K primitives reduced across tasks) into the same depth-first array at any thread
 // count; the 5M-triangle build's profile and the reasons for each step are in
-// benchmarks/RESULTS.md (issue 13, session 4).
+// accel/DECISIONS.md, "parallel build".
 #include "accel/bvh/build.h"
 
 #include "accel/bvh/build_bins.h"
@@ -107,7 +107,7 @@ struct Box {
 /// Centroid bins (Wald 2007) that only pay for the bins they use. A node of 8 primitives
 /// fills at most 8 of the 32 bins per axis, and clearing and sweeping all 96 cost more
 /// than binning the primitives: near the leaves, where most nodes are, that fixed cost
-/// was most of the build (profile of the 5M sphere, benchmarks/RESULTS.md, issue 13).
+/// was most of the build (profile of the 5M sphere; accel/DECISIONS.md, "parallel build").
 /// `used[a]` has bit k set when bin k of axis a holds a primitive; the sweep visits only
 /// those bins and picks exactly the split the dense 32-bin sweep picks (sparse_sweep).
 struct SparseBins {

@@ -69,14 +69,14 @@ constexpr double kSbvhBudget = 1.0;
 /// The leaf-size cap a builder uses when AccelOptions::leaf_size is 0. Below the cap the
 /// SAH decides (a leaf of 5-8 costs two block tests, which the AVX2 and AVX-512 kernels
 /// make in one 8-lane test); above it a split is forced, even one that separates
-/// nothing. Measured (RESULTS.md, session 5), with the 8-lane test of two blocks:
+/// nothing. Measured (accel/DECISIONS.md, "leaf-size cap"), with the 8-lane test of two blocks:
 /// - binned SAH, cap 8 against 4 on the course meshes and the 5M sphere: camera +4 to
 ///   +9 %, shadow 0 to +22 %, diffuse -4 to +11 %;
 /// - SBVH, whose meshes hold bundles of overlapping needles no split separates: on the
 ///   1000:1 sliver mesh caps 4 / 8 / 12 test the same ~1415 triangles per shadow ray but
 ///   visit 104 / 63 / 49 wide nodes. Cap 16 fills the AVX-512 kernel's 16-lane test
 ///   (kernel.h, tri16_mt): against 12, sliver shadow rays +9 to +14 %, camera and
-///   diffuse within noise (session 10);
+///   diffuse within noise ("16-lane SBVH leaves");
 /// - binned SAH: caps 12 and 16 with that test measured -14 to +5 % on the course
 ///   meshes (CBbunny lost on every ray kind), so it keeps 8;
 /// - midpoint keeps 4: it makes every node of at most the cap a leaf, without a cost.
@@ -93,7 +93,7 @@ TreeFacts tree_facts(const std::vector<Node>& nodes);
 /// advises it as transparent huge pages and faults its pages in on the calling arena's
 /// threads. A std::vector then clears it on one thread, and on this machine the page
 /// faults, not the clearing, were most of that serial time (they cost ~1-2 ms per MB
-/// for fresh memory: `perf` of the 5M-triangle build, benchmarks/RESULTS.md).
+/// for fresh memory: `perf` of the 5M-triangle build; accel/DECISIONS.md, "parallel build").
 void prepare_fresh(void* p, size_t bytes);
 
 }  // namespace accel::bvh

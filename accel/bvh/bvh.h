@@ -32,8 +32,8 @@ Isa resolve_isa(Isa isa);
 const char* layout_name(NodeLayout layout);
 /// Parses auto|float|quantized; false for anything else.
 bool parse_layout(const std::string& s, NodeLayout& out);
-/// Auto's threshold for quantized nodes, in primitives. Measured (RESULTS.md, "compressed
-/// nodes"): on the course meshes (<= 51k triangles, trees of a few MiB that stay in L2/L3)
+/// Auto's threshold for quantized nodes, in primitives. Measured (accel/DECISIONS.md,
+/// "quantized-node threshold"): on the course meshes (<= 51k triangles, trees of a few MiB that stay in L2/L3)
 /// quantized nodes are 10-20 % slower, dequantizing costing ~23 instructions per node; on
 /// the 5M sphere (~290 MB of nodes and blocks) they are about even (diffuse +1..+12 %,
 /// shadow -7..+7 %), on a 15M sphere 10-15 % faster on shadow and diffuse rays.

@@ -40,7 +40,7 @@ Isa resolve_isa(Isa isa) {
     // any-hit query pushes its hit children by vpcompressd and picks the nearest by a
     // masked minimum, one instruction each, and the compares land in mask registers:
     // shadow rays 4-7 % faster, closest-hit even to 3 % faster on the course meshes,
-    // within noise on the 5M sphere (RESULTS.md, session 5).
+    // within noise on the 5M sphere (accel/DECISIONS.md, "AVX-512 by default").
     if (cpu_has(Isa::Avx512)) return Isa::Avx512;
     return cpu_has(Isa::Avx2) ? Isa::Avx2 : Isa::Sse2;
 }

@@ -62,7 +62,7 @@ constexpr float kFarScale = 1.0f + 2.0f * gamma_n(4);
 /// This specialises every box test to the ray's octant without a branch. (A table of the
 /// eight octants' rows, indexed by a movmskps of the direction, took ~10 instructions
 /// off each ray but put a load before the first node's addresses: shadow rays 2-5 %
-/// slower; RESULTS.md, session 14.)
+/// slower; accel/DECISIONS.md, "octant table (dropped)".)
 struct Planes {
     float org[3], neg_inv[3];
     int near[3], far[3];
@@ -100,7 +100,7 @@ inline __m256 splat<__m256>(float x) { return _mm256_set1_ps(x); }
 /// distance t0 can be a zero slab distance only when it exceeds t_min, so never for the
 /// t_min >= 0 of every ray here (for a negative t_min, an occlusion ray could order its
 /// children differently by order_key, with the same answer). (Per CBbunny camera ray,
-/// AVX2 callgrind: see RESULTS.md, session 14.)
+/// AVX2 callgrind: accel/DECISIONS.md, "negated slab form".)
 template <class V>
 struct BoxConstants {
     V o[3], neg_inv[3], neg_inv_far[3], t_min, t_far;
@@ -132,7 +132,7 @@ inline __m128 low4(__m256 x) { return _mm256_castps256_ps128(x); }
 /// leaving, 35-40 instructions per leaf visit. Now the AVX-512 kernel stores none there
 /// and the AVX2 kernel 6 vectors. Per CBbunny camera ray (callgrind, AVX2): 773 -> 748
 /// instructions, of them stores 83 -> 62. One thread: AVX-512 +2.5 %, watertight +1.8 %,
-/// AVX2 and SSE2 unchanged (RESULTS.md, session 13). Forcing the node test's rows to be
+/// AVX2 and SSE2 unchanged (accel/DECISIONS.md, "leaf rows held at full width"). Forcing the node test's rows to be
 /// read from memory too (an empty asm on the reference every iteration) removed the
 /// remaining spills but cost 14-16 %.
 /// SSE2 is part of every x86-64, so all ISAs share the four-lane code (the wider files
@@ -365,7 +365,7 @@ PT_INLINE inline Lanes8 tri8_mt(const Block& b0, const Block& b1, const LeafRay&
 /// tri4_wt's operations lane for lane, the double-precision retry included, so the
 /// watertight guarantee and naive's bits hold at this width too. Against one block at a
 /// time with a branch on its hits: shadow rays +17 to +22 %, diffuse +2 to +11 % on the
-/// course meshes (RESULTS.md, session 10).
+/// course meshes (accel/DECISIONS.md, "8-lane watertight leaves").
 PT_INLINE inline Lanes8 tri8_wt(const Block& b0, const Block& b1, const LeafRay& r, float t_max) {
     const auto ld2 = [](const float* lo, const float* hi) {
         return _mm256_insertf128_ps(_mm256_castps128_ps256(_mm_load_ps(lo)), _mm_load_ps(hi), 1);
@@ -382,7 +382,7 @@ PT_INLINE inline Lanes8 tri8_wt(const Block& b0, const Block& b1, const LeafRay&
 /// lane. Leaves of three or four blocks are the SBVH's needle bundles (cap 16, build.h);
 /// there one test instead of two 8-lane ones cut the instructions per triangle, not the
 /// arithmetic (Zen 4 runs a 512-bit operation as two 256-bit halves): sliver shadow rays
-/// +14 to +23 % (RESULTS.md, session 10). The binned SAH's leaves (cap 8) never reach it.
+/// +14 to +23 % (accel/DECISIONS.md, "16-lane SBVH leaves"). The binned SAH's leaves (cap 8) never reach it.
 /// In the closest-hit loop it gave sliver diffuse rays +10 % but cost the course meshes'
 /// camera rays 2-6 %, which never take it, so traverse keeps the 8-lane test.
 PT_INLINE inline LanesOf<Ops16> tri16_mt(const Block& b0, const Block& b1, const Block& b2, const Block& b3,
@@ -473,7 +473,7 @@ inline const Node* node_array(const WideBvh& w) {
 /// far beyond the caches) prefetches in both; the float layout only for closest hits,
 /// where it measured +1-2 % on diffuse rays of the course meshes, whose trees (2-3 MB)
 /// overflow the 1 MB L2; for shadow rays, which stop at the first hit, it cost 5-11 %
-/// (RESULTS.md, session 7). Interior children: the node's lines; leaves: the first block's.
+/// (accel/DECISIONS.md, "node-line prefetch"). Interior children: the node's lines; leaves: the first block's.
 template <bool kOn, class P>
 PT_INLINE inline void prefetch_child(const typename P::Node* nodes, const Block* blocks, uint32_t ref) {
     if constexpr (kOn) {
@@ -493,7 +493,7 @@ PT_INLINE inline void prefetch_child(const typename P::Node* nodes, const Block*
 /// the block it selects. Measured on the 5M sphere (A/B, 3 rounds, medians of the ratio
 /// to Embree): camera 1.13 -> 1.27, shadow 1.06 -> 1.29, diffuse 0.98 -> 1.05; on 1M
 /// triangles, float nodes: 1.27 -> 1.43, 1.06 -> 1.17, 1.05 -> 1.17. Prefetching into L2
-/// only, or also when a subtree is pushed, gained less (RESULTS.md, session 8).
+/// only, or also when a subtree is pushed, gained less (accel/DECISIONS.md, "leaf prefetch").
 PT_INLINE inline void prefetch_leaves(const Block* blocks, uint32_t hint) {
     if (!hint) return;
     const Block* first = blocks + (hint & (WideNode::kHintBlocks - 1));
@@ -523,7 +523,7 @@ struct Closest {
 /// that misses the scene just as well, and the scalar test (three divisions, then a
 /// dependent chain of six slab distances and a branch, before any SIMD work could
 /// start) measured 10-25 % of a shadow or diffuse ray on the course meshes, whose rays
-/// all start inside the scene box (RESULTS.md, session 5).
+/// all start inside the scene box (accel/DECISIONS.md, "no scalar root test").
 template <class P, TriangleTest Test, bool Count, bool HasSpheres>
 Closest traverse(const WideBvh& w, const Ray& ray_in, TraceStats& stats) {
     const typename P::Node* nodes = node_array<typename P::Node>(w);
@@ -573,13 +573,13 @@ Closest traverse(const WideBvh& w, const Ray& ray_in, TraceStats& stats) {
                     // a leaf's last single block is tested
                     // twice over, its upper copy masked off. A branch on "one block or
                     // two" followed the data and mispredicted: diffuse +1 to +5 %, camera
-                    // 0 to +2 % without it (RESULTS.md, session 9). The second block's
+                    // 0 to +2 % without it (accel/DECISIONS.md, "8-lane leaf tests"). The second block's
                     // lanes were tested against the segment before the first block's hits
                     // shortened it; the check below drops those that the shortened segment
                     // excludes, as testing in turn would. (This loop and the 4-lane one
                     // below are kept apart: one lambda for both, capturing t, u, v by
-                    // reference, measured 10-25 % slower on camera and diffuse rays,
-                    // session 6.)
+                    // reference, measured 10-25 % slower on camera and diffuse rays:
+                    // accel/DECISIONS.md, "separate 8-lane and 4-lane leaf loops".)
                     const bool two = end - b >= 2;
                     const Block& b1 = two ? b[1] : b[0];
                     if constexpr (Count) tests += two ? unsigned(__builtin_popcount(filled(b1))) : 0u;
@@ -682,9 +682,9 @@ Closest traverse(const WideBvh& w, const Ray& ray_in, TraceStats& stats) {
 /// Order: the nearest hit child is entered first (P::nearest, branch-free; on the 8-lane
 /// kernels nearest to 1/128 of the distance), the others stay in lane order; a full sort
 /// measured slower for shadow rays, and no order at all (lane order) 17-20 % slower on
-/// CBbunny, though 10-13 % faster on cow and bunny (RESULTS.md, sessions 5 and 7). Lane
+/// CBbunny, though 10-13 % faster on cow and bunny (accel/DECISIONS.md, "nearest child first"). Lane
 /// order only where two children are hit, or only in bottom nodes, lost 1-10 % on
-/// every mesh (session 9). Counting as in traverse.
+/// every mesh (same decision). Counting as in traverse.
 template <class P, TriangleTest Test, bool Count, bool HasSpheres>
 bool occlude(const WideBvh& w, const Ray& ray_in, TraceStats& stats) {
     const typename P::Node* nodes = node_array<typename P::Node>(w);
@@ -757,7 +757,7 @@ bool occlude(const WideBvh& w, const Ray& ray_in, TraceStats& stats) {
                 // lane of a one-bit mask (every hit lane's key is below the 0xFFFF of the
                 // others), and pushing an empty mask adds nothing. That branch followed
                 // the data and mispredicted: shadow rays +4.5 to +6.2 % on the course
-                // meshes without it (RESULTS.md, session 9).
+                // meshes without it (accel/DECISIONS.md, "branch-free occlusion push").
                 const int i = P::nearest(dist, mask);
                 ref = n.child[i];
                 count = n.count[i];

@@ -31,7 +31,7 @@ struct Node8 {
     /// (kernel.h, BoxConstants). The distances reduce as a tree, two max (min) levels
     /// instead of three in a row, and the far scale is folded into neg_inv_far: by count, about 3 of the ~40 cycles from
     /// a node's load to its child's on the course meshes (shadow and diffuse +2 to +4 %,
-    /// 5M sphere +2 to +9 %; RESULTS.md, session 9). NaN (0 * inf: a zero direction
+    /// 5M sphere +2 to +9 %; accel/DECISIONS.md, "node test as a tree"). NaN (0 * inf: a zero direction
     /// component, the origin on that plane): vmaxps/vminps return their second operand
     /// when either is NaN. The accumulator (t_min, the segment's end) is second in the
     /// second pair, so that pair is never NaN, and the root returns it when the first
@@ -56,7 +56,7 @@ struct Node8 {
     /// 0xFFFF, and one phminposuw finds the smallest and its lane. Half the latency of a
     /// full-precision horizontal minimum (three shuffle-min steps, a compare, a movemask),
     /// on the path from a node's test to the fetch of the next node: shadow rays +2 to
-    /// +5 % on the course meshes (RESULTS.md, session 7).
+    /// +5 % on the course meshes (accel/DECISIONS.md, "16-bit nearest key").
     PT_INLINE static int nearest(const float* dist, unsigned mask) {
         const __m256i bits = _mm256_srli_epi32(_mm256_castps_si256(_mm256_load_ps(dist)), 16);
 #ifdef __AVX512VL__
@@ -68,7 +68,7 @@ struct Node8 {
 #endif
 #ifdef __AVX512VL__
         // One truncating move (vpmovdw) instead of an extract and a pack: the keys fit 16
-        // bits. Shadow rays +1 to +3 % on every mesh measured (RESULTS.md, session 9).
+        // bits. Shadow rays +1 to +3 % on every mesh measured ("16-bit nearest key").
         const __m128i packed = _mm256_cvtepi32_epi16(keys);
 #else
         const __m128i packed = _mm_packus_epi32(_mm256_castsi256_si128(keys), _mm256_extracti128_si256(keys, 1));
@@ -101,7 +101,7 @@ struct Node8 {
 /// to the float the build checked (origin + q * 2^e: one rounding, the product being
 /// exact, so the FMA gives the same bits as quantize.cpp's mul + add), then tested by
 /// Node8's slab test. Half the bytes of WideNode (two cache lines) for about 20 more
-/// instructions per node: it pays only where node fetches miss the caches (RESULTS.md).
+/// instructions per node: it pays only where node fetches miss the caches (accel/DECISIONS.md, "quantized-node threshold").
 struct QNode8 : Node8 {
     using Node = QuantNode;
     static constexpr bool kPrefetch = true;

@@ -10,7 +10,7 @@
 // depth-first order, and the subtrees are then written, blocks included, in parallel
 // straight into the final arrays. Counting twice costs less than it saves: no array
 // grows, no subtree is copied, and the arrays are written once (the serial collapse
-// was ~10 % of the 5M-triangle build; benchmarks/RESULTS.md, issue 13).
+// was ~10 % of the 5M-triangle build; accel/DECISIONS.md, "parallel build").
 #include "accel/bvh/wide.h"
 
 #include <tbb/parallel_for.h>

@@ -77,7 +77,7 @@ static_assert(sizeof(QuantNode) == 16 * kWidth);
 /// geometry (a degenerate triangle, det = 0, that no lane mask lets through anyway).
 /// The primitive's own index is stored, not its leaf-order slot: a closest hit then
 /// needs no read of the slot map, a random access into 8 bytes per primitive that
-/// missed the caches on big meshes (5M sphere: +22 % camera rays, RESULTS.md session 7).
+/// missed the caches on big meshes (5M sphere: +22 % camera rays; accel/DECISIONS.md, "primitive ids in the leaf blocks").
 struct alignas(16) Block {
     float p[3][3][4];  ///< [vertex or edge][axis][lane]
     uint32_t prim[4];  ///< the primitive's index in its geometry (Hit::prim_id); kNone: unused lane
@@ -145,7 +145,7 @@ inline PrimRef lane_primitive(const WideBvh& w, const Block& b, int lane) {
 /// a leaf of one block costs kBlockCost and each pair of blocks, which the AVX2 and
 /// AVX-512 kernels test in one 8-lane Möller–Trumbore, kBlockPairCost (the tree does not
 /// depend on the ISA that traces it). Measured on the course meshes and the 5M sphere
-/// (RESULTS.md, session 6): a pair cost of 1.25 or 1.5 gives the same speed within noise;
+/// (accel/DECISIONS.md, "collapse by dynamic programming"): a pair cost of 1.25 or 1.5 gives the same speed within noise;
 /// 1.0, a block cost of 0.7 or 1.5, or a fixed cost per leaf visited, no gain.
 struct CollapseCost {
     static constexpr float kNode = 1.0f;
@@ -162,7 +162,7 @@ struct CollapseCost {
 double wide_sah_cost(const WideBvh& w);
 
 /// Leaf blocks of at least this many bytes get prefetch hints under LeafPrefetch::Auto.
-/// Measured (RESULTS.md, session 8): on the course meshes (blocks of 0.2-2.5 MB, in L2
+/// Measured (accel/DECISIONS.md, "leaf prefetch"): on the course meshes (blocks of 0.2-2.5 MB, in L2
 /// or L3) the prefetch cost 1-7 %; on a 250K-triangle sphere (~10 MB) it was even; on
 /// 1M (~40 MB) and 5M triangles (~200 MB) it gained 7-22 %. The threshold lies
 /// between, near the size of a last-level cache.

@@ -295,7 +295,8 @@ public:
         // rather than recomputing it from the scene's arrays spares a read of the hit
         // triangle's indices and vertices, which on large scenes misses the caches: the
         // custom BVH takes its normal from its leaf block for the same reason, and the
-        // comparison gives each backend its cheapest correct path (RESULTS.md, session 5).
+        // comparison gives each backend its cheapest correct path (accel/DECISIONS.md,
+        // "hit data from the leaf block").
         // The counting mode's user geometry reports no Ng of ours: finish_hit there.
         if (g.type == GeometryType::Triangles && !counting_)
             h.ng = Vec3f(rh.hit.Ng_x, rh.hit.Ng_y, rh.hit.Ng_z);

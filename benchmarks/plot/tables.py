@@ -147,16 +147,16 @@ def threads(paths, target=1.8):
                 cell=f"{scene} {kind}", threads=t,
                 scaling=float(r["mrays_per_s"]) / float(one["mrays_per_s"]),
                 probe=num(r, "machine_scaling"),
-                probe1=num(one, "machine_scaling"),  # since session 12, in a study of several threads
+                probe1=num(one, "machine_scaling"),  # in a study of several threads (newer CSVs)
                 full=num(r, "scaling_full_rounds"), full_rounds=int(r.get("full_rounds") or 0),
-                equal=None if eff is None else eff * t))  # since session 12: against the CPUs alone
+                equal=None if eff is None else eff * t))  # newer CSVs: against the CPUs alone
         print(f"{path}:")
         for backend, v in per.items():
             below = [x for x in v if x["scaling"] < target]
             fulls = [x["full"] for x in v if x["full"] is not None]
             probe = (f"over the rounds the probe gave {0.9 * v[0]['threads']:.2f}: "
                      f"{sum(x >= target for x in fulls)} of {len(fulls)} cells >= {target}"
-                     if any(x["probe"] is not None for x in v) else "no machine probe in this CSV (before session 11)")
+                     if any(x["probe"] is not None for x in v) else "no machine probe in this CSV (an older accel_bench)")
             equal = [x for x in v if x["equal"] is not None]
             eff = (f"; against the CPUs alone, per round: {min(x['equal'] for x in equal):.2f}-"
                    f"{max(x['equal'] for x in equal):.2f}x on equal CPUs, "
