@@ -3,7 +3,7 @@
 
   tables.py accel ACCEL_CSV > accel_table.md
   tables.py tradeoff TRADEOFF_CSV > tradeoff_table.md
-  tables.py runs ACCEL_CSV...     issue 13's table over several runs of one command
+  tables.py runs ACCEL_CSV...     the one-thread table over several runs of one command
   tables.py threads ACCEL_CSV...  thread scaling per run, beside the machine probe
 
 The tradeoff table ranks settings by efficiency, 1 / (rel_rmse^2 * seconds): for an
@@ -104,9 +104,8 @@ def _index(path):
 
 
 def runs(paths, fast="custom:sah:fast"):
-    """Issue 13's one-thread table: the fast backend's ratio to Embree HIGH in each run, the
-    other custom backends' medians beside it, and per run how many cells reach 1.0 and 1.2
-    (the issue's targets: every cell >= 1.0, half of them >= 1.2)."""
+    """The one-thread table: the fast backend's ratio to Embree HIGH in each run, the
+    other custom backends' medians beside it, and per run how many cells reach 1.0 and 1.2."""
     idx = [_index(p) for p in paths]
     cells = list(OrderedDict.fromkeys((k[0], k[2]) for k in idx[0] if k[1] == fast and k[3] == 1))
     others = list(OrderedDict.fromkeys(k[1] for k in idx[0] if k[1].startswith("custom:") and k[1] != fast))
