@@ -113,6 +113,24 @@ public:
     /// Any hit with t in [ray.t_min, ray.t_max]; may stop at the first one found.
     virtual bool occluded(const Ray& ray, TraceStats& stats) const = 0;
 
+    /// Whether the backend traces many rays faster together than one by one (a plugin's
+    /// batched entry points). Tools that trace whole ray sets (xcheck, accel_bench) then
+    /// hand it chunks through the two calls below; everyone else traces ray by ray.
+    virtual bool has_batches() const { return false; }
+
+    /// intersect for each ray: hits[i] as intersect leaves it, a default Hit on a miss.
+    virtual void intersect_batch(std::span<const Ray> rays, Hit* hits, TraceStats& stats) const {
+        for (size_t i = 0; i < rays.size(); ++i) {
+            hits[i] = Hit{};
+            intersect(rays[i], hits[i], stats);
+        }
+    }
+
+    /// occluded for each ray: occluded[i] = 1 or 0.
+    virtual void occluded_batch(std::span<const Ray> rays, uint8_t* occluded, TraceStats& stats) const {
+        for (size_t i = 0; i < rays.size(); ++i) occluded[i] = this->occluded(rays[i], stats) ? 1 : 0;
+    }
+
     virtual const BuildInfo& info() const = 0;
 
     /// Union of all primitive bounds.
@@ -126,7 +144,8 @@ public:
     using std::runtime_error::runtime_error;
 };
 
-/// Backend names: "naive", "custom", "embree".
+/// Backend names: "naive", "custom", "embree", or "plugin:PATH[:OPTIONS]" (a library
+/// implementing accel/plugin/accel_plugin.h; accel/plugin/host.h).
 std::unique_ptr<Accelerator> create_accelerator(const std::string& name,
                                                 std::span<const GeometryView> geometry,
                                                 const AccelOptions& options);

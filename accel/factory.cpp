@@ -1,6 +1,7 @@
 #include "accel/accelerator.h"
 #include "accel/bvh/bvh.h"
 #include "accel/naive/naive.h"
+#include "accel/plugin/host.h"
 #ifdef PT_HAVE_EMBREE
 #include "accel/embree/embree.h"
 #endif
@@ -25,6 +26,7 @@ bool is_backend_name(const std::string& name) {
 std::unique_ptr<Accelerator> create_accelerator(const std::string& name,
                                                 std::span<const GeometryView> geometry,
                                                 const AccelOptions& options) {
+    if (name.rfind("plugin:", 0) == 0) return make_plugin(name.substr(7), geometry);
     if (name == "naive") return make_naive(geometry, options);
     if (name == "custom") return make_bvh(geometry, options);
 #ifdef PT_HAVE_EMBREE
@@ -32,7 +34,7 @@ std::unique_ptr<Accelerator> create_accelerator(const std::string& name,
 #else
     if (name == "embree") throw AccelError("this build has no Embree (PT_ENABLE_EMBREE=OFF)");
 #endif
-    throw AccelError("unknown accelerator '" + name + "' (expected naive, custom or embree)");
+    throw AccelError("unknown accelerator '" + name + "' (expected naive, custom, embree or plugin:PATH[:OPTIONS])");
 }
 
 }  // namespace accel

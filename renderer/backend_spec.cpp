@@ -14,10 +14,22 @@ BackendSpec parse_backend_spec(const std::string& spec) {
         if (!w.empty()) words.push_back(w);
     if (words.empty()) throw std::invalid_argument("empty backend spec");
     BackendSpec b;
+    // A plugin takes the rest of the spec, path and options, as its own (accel/plugin).
+    if (words[0] == "plugin") {
+        if (words.size() < 2) throw std::invalid_argument("backend spec '" + spec + "': plugin:PATH[:OPTIONS] names no path");
+        // Labelled by the file's name (and options), so tables stay readable.
+        b.backend = spec;
+        const std::string rest = spec.substr(spec.find(':') + 1);
+        const size_t colon = rest.find(':');
+        const std::string path = rest.substr(0, colon);
+        b.label = "plugin:" + path.substr(path.find_last_of('/') + 1) +
+                  (colon == std::string::npos ? "" : rest.substr(colon));
+        return b;
+    }
     b.backend = words[0];
     if (b.backend != "naive" && b.backend != "custom" && b.backend != "embree")
         throw std::invalid_argument("backend spec '" + spec + "': unknown backend '" + b.backend +
-                                    "' (naive, custom, embree)");
+                                    "' (naive, custom, embree, plugin:PATH[:OPTIONS])");
     std::string tri = "fast", split = "sah", quality = "high";
     bool robust = false, count = false;
     accel::Isa isa = accel::Isa::Auto;
@@ -82,6 +94,10 @@ void apply_layout(std::vector<BackendSpec>& specs, accel::NodeLayout layout) {
 }
 
 std::string kernel_name(const BackendSpec& spec, const accel::BuildInfo& built) {
+    if (spec.backend.rfind("plugin:", 0) == 0) {  // the plugin's name: "plugin NAME VERSION (...)"
+        const size_t from = built.backend.find(' ') + 1, to = built.backend.find(' ', from);
+        return from == 0 ? "plugin" : built.backend.substr(from, to - from);
+    }
     if (spec.backend != "custom") return spec.backend;
     // The layout as built (auto decides by the scene's size).
     const bool quantized = built.backend.find(accel::layout_name(accel::NodeLayout::Quantized)) != std::string::npos;

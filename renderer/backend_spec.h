@@ -11,14 +11,15 @@ namespace renderer {
 
 struct BackendSpec {
     std::string label;    ///< the string as normalised, e.g. "custom:sah:fast"
-    std::string backend;  ///< naive | custom | embree
+    std::string backend;  ///< naive | custom | embree | plugin:PATH[:OPTIONS] (the whole spec)
     accel::AccelOptions options;
 };
 
 /// Parses one spec; throws std::invalid_argument naming the bad word. Words after the
 /// backend name, in any order: fast|watertight, sah|midpoint|sbvh, leafN,
 /// auto|sse2|avx2|avx512 (custom's kernel), float|quantized (custom's node layout),
-/// low|medium|high, robust, count.
+/// low|medium|high, robust, count. "plugin:PATH[:OPTIONS]" is taken whole: its words
+/// are the plugin's.
 BackendSpec parse_backend_spec(const std::string& spec);
 
 /// A tool's --isa: the kernel of every custom spec that did not name one (label gets

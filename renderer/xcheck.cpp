@@ -19,6 +19,33 @@ const char* verdict_name(Verdict v) {
     return "?";
 }
 
+namespace {
+/// trace_set_into for a backend with batched entry points: the same chunks of 1024 rays,
+/// each traced by one batched call.
+void trace_batches(const accel::Accelerator& accel, const RaySet& set, bool any_hit,
+                   tbb::enumerable_thread_specific<accel::TraceStats>& local, std::vector<RayOutcome>& out) {
+    tbb::parallel_for(tbb::blocked_range<size_t>(0, set.rays.size(), 1024), [&](const tbb::blocked_range<size_t>& r) {
+        accel::TraceStats& st = local.local();
+        const std::span<const accel::Ray> rays(set.rays.data() + r.begin(), r.size());
+        if (any_hit) {
+            std::vector<uint8_t> occluded(r.size());
+            accel.occluded_batch(rays, occluded.data(), st);
+            for (size_t i = 0; i < r.size(); ++i) {
+                out[r.begin() + i] = RayOutcome{};
+                out[r.begin() + i].hit = occluded[i] != 0;
+            }
+            return;
+        }
+        std::vector<accel::Hit> hits(r.size());
+        accel.intersect_batch(rays, hits.data(), st);
+        for (size_t i = 0; i < r.size(); ++i) {
+            const accel::Hit& h = hits[i];
+            out[r.begin() + i] = h.valid() ? RayOutcome{true, h.t, h.u, h.v, h.geom_id, h.prim_id, h.ng} : RayOutcome{};
+        }
+    });
+}
+}  // namespace
+
 void trace_set_into(const accel::Accelerator& accel, const RaySet& set, accel::TraceStats& stats,
                     std::vector<RayOutcome>& out, bool closest_for_shadow) {
     out.resize(set.rays.size());
@@ -26,6 +53,11 @@ void trace_set_into(const accel::Accelerator& accel, const RaySet& set, accel::T
     proto.counting = stats.counting;  // uncounted traces run the backend's lean path
     tbb::enumerable_thread_specific<accel::TraceStats> local(proto);
     const bool any_hit = set.occlusion() && !closest_for_shadow;
+    if (accel.has_batches()) {
+        trace_batches(accel, set, any_hit, local, out);
+        for (const accel::TraceStats& s : local) stats += s;
+        return;
+    }
     tbb::parallel_for(tbb::blocked_range<size_t>(0, set.rays.size(), 1024),
                       [&](const tbb::blocked_range<size_t>& r) {
                           accel::TraceStats& st = local.local();

@@ -8,9 +8,15 @@
 #include <string>
 #include <vector>
 
+#include <gtest/gtest.h>
+
+#include "renderer/camera.h"
+#include "renderer/image.h"
 #include "renderer/integrators/path.h"
 #include "renderer/lights.h"
+#include "renderer/render.h"
 #include "renderer/scene_geometry.h"
+#include "scenes/load.h"
 
 namespace renderer {
 
@@ -64,5 +70,67 @@ struct World {
         integrator = std::make_unique<PathIntegrator>(scene, *geometry, *lights, is);
     }
 };
+
+struct Rendered {
+    RenderResult result;
+    Camera camera;
+};
+
+/// A scene file rendered at w x h, framed as the course frames it at 480x360.
+inline Rendered render_file(const std::string& path, const IntegratorSettings& is, int w, int h, int spp,
+                            int threads, const std::string& backend = "custom", uint64_t seed = 0,
+                            int adaptive_batch = 0, float tol = 0.05f) {
+    World s;
+    s.scene = scenes::load_scene(path);
+    s.build(is, backend);
+    // Frame as the course does at 480x360, at a lower resolution.
+    CameraOverrides ov;
+    ov.hfov_deg = make_camera(s.scene, CameraMode::Auto, 480, 360).camera.hfov_deg();
+    Rendered r;
+    r.camera = make_camera(s.scene, CameraMode::Auto, w, h, ov).camera;
+    RenderSettings rs;
+    rs.width = w;
+    rs.height = h;
+    rs.spp = spp;
+    rs.threads = threads;
+    rs.seed = seed;
+    rs.progress = false;
+    rs.adaptive_batch = adaptive_batch;
+    rs.adaptive_tol = tol;
+    r.result = render(r.camera, *s.integrator, *s.accel, rs);
+    return r;
+}
+
+/// Region means of illuminance over a G x G grid, with standard errors from the
+/// per-pixel variance of the mean.
+inline std::vector<Estimate> region_means(const Image& img, int grid) {
+    std::vector<Estimate> out(size_t(grid) * grid);
+    std::vector<int> count(out.size(), 0);
+    for (int y = 0; y < img.height; ++y)
+        for (int x = 0; x < img.width; ++x) {
+            const float* p = img.at(x, y);
+            const size_t k = size_t(y * grid / img.height) * grid + size_t(x * grid / img.width);
+            out[k].mean += 0.2126 * p[kR] + 0.7152 * p[kG] + 0.0722 * p[kB];
+            out[k].se += p[kVariance];  // sum of variances of pixel means
+            ++count[k];
+        }
+    for (size_t k = 0; k < out.size(); ++k) {
+        out[k].mean /= count[k];
+        out[k].se = std::sqrt(out[k].se) / count[k];
+    }
+    return out;
+}
+
+/// Region means agree within z standard errors, plus `rel` of the mean where an estimator
+/// is known to be heavy-tailed (its sample variance then understates its error).
+inline void expect_same_regions(const Image& a, const Image& b, int grid, double z, const std::string& what,
+                                double rel = 0.0) {
+    auto ra = region_means(a, grid), rb = region_means(b, grid);
+    for (size_t k = 0; k < ra.size(); ++k) {
+        const double se = std::sqrt(ra[k].se * ra[k].se + rb[k].se * rb[k].se);
+        EXPECT_NEAR(ra[k].mean, rb[k].mean, z * se + rel * std::max(ra[k].mean, rb[k].mean) + 1e-6)
+            << what << ", region " << k;
+    }
+}
 
 }  // namespace renderer
