@@ -1,4 +1,9 @@
 // pathtracer [options] SCENE: the course's command line, on any of our backends.
+//
+// main reads as the program runs: the options CLI11 fills (Options), their checks and
+// conversions (finish_options), the scene, camera and accelerator (set-up), the render,
+// and the files it writes. Each flag's meaning is in the add_*_options functions, in the
+// order --help lists them.
 #include <CLI/CLI.hpp>
 #include <fmt/format.h>
 
@@ -34,8 +39,190 @@ extern "C" void on_sigint(int) { g_cancel.store(true); }
 
 [[noreturn]] void fail(const std::string& message) { tools::fail("pathtracer", message); }
 
-std::string default_output(const std::string& scene) {
-    return std::filesystem::path(scene).stem().string() + ".png";
+/// Every option, as CLI11 fills it; finish_options turns the words into settings.
+struct Options {
+    std::string scene_path;
+    renderer::RenderSettings rs;
+    renderer::IntegratorSettings is;
+    accel::AccelOptions ao;
+    std::string backend = "custom", bvh = "sah", tri = "fast", quality = "high", camera_mode = "auto", isa = "auto";
+    std::string nodes = "auto", lights_mode, offset = "error-bound", strategy = "mis";
+    std::string output;
+    std::vector<int> resolution, cell;
+    std::vector<float> adaptive;
+    int accumulate = 1;
+    std::vector<float> cam_pos, cam_target, cam_up;
+    float fov = 0;
+    bool quiet = false, cost = false, strict = false;
+    std::string ocio_config;
+    std::string env_map, camera_file;
+    float lens_radius = -1, focal_distance = -1;
+    std::string checkpoint, resume;
+};
+
+/// --accel: the backends built in, and any plugin:PATH[:OPTIONS] (accel::is_backend_name
+/// decides, so every tool accepts the same names).
+CLI::Validator backend_name() {
+    return CLI::Validator(
+        [](std::string& name) -> std::string {
+            if (accel::is_backend_name(name)) return {};
+            return "unknown backend '" + name + "' (naive, custom, embree or plugin:PATH[:OPTIONS])";
+        },
+        "");
+}
+
+/// The scene and the course's flags (CS184 3-1 and 3-2), lens and output.
+void add_course_options(CLI::App& app, Options& o) {
+    app.add_option("scene", o.scene_path,
+                   "Scene file: .dae (CS184 COLLADA, CGL or CMU462 profile), .gltf or .glb (glTF 2.0 with "
+                   "KHR_draco_mesh_compression, KHR_mesh_quantization, KHR_texture_transform, "
+                   "KHR_lights_punctual, KHR_materials_emissive_strength, KHR_materials_transmission, "
+                   "KHR_materials_ior, KHR_materials_unlit)")
+        ->required();
+    app.add_option("-s", o.rs.spp, "Samples per pixel (the cap under -a)")->check(CLI::Range(1, 1 << 20));
+    app.add_option("-l", o.is.light_samples, "Samples per area light")->check(CLI::Range(1, 1 << 16));
+    app.add_option("-t", o.rs.threads, "Render threads (default: all cores)")->check(CLI::Range(1, 1024));
+    app.add_option("-m", o.is.max_depth, "Maximum ray depth (0 = emission only, 1 = direct only)")
+        ->check(CLI::Range(0, 100000));
+    app.add_option("-o", o.accumulate, "1: accumulate all bounces (default); 0: only light of exactly -m bounces")
+        ->check(CLI::IsMember({0, 1}));
+    app.add_option("-a", o.adaptive, "Adaptive sampling: BATCH TOL (stop a pixel when 1.96*sigma/sqrt(n) <= TOL*mean)")
+        ->expected(2);
+    app.add_flag("-H", o.is.hemisphere, "Direct lighting by uniform hemisphere sampling instead of light sampling "
+                                        "(under --lights=course it converges to a slightly different image than "
+                                        "light sampling, as in the course)");
+    app.add_option("-e", o.env_map, "Environment map: latitude-longitude EXR/HDR, importance-sampled");
+    app.add_option("-b", o.lens_radius, "Thin lens radius (0 = pinhole)")->check(CLI::Range(0.0f, 1e30f));
+    app.add_option("-d", o.focal_distance, "Focal distance of the thin lens (default: to the scene centre)")
+        ->check(CLI::PositiveNumber);
+    app.add_option("--strategy", o.strategy, "Direct light at non-diffuse surfaces: mis | light | bsdf (bsdf is mis under --lights=course, where bounces do not see emitters)")
+        ->check(CLI::IsMember({"mis", "light", "bsdf"}));
+    app.add_option("-c", o.camera_file, "Camera settings file of the course application (overrides the scene's camera)");
+    app.add_option("-f", o.output, "Output image (.png, .jpg, .exr; default: SCENE-NAME.png)");
+    app.add_option("-r", o.resolution, "Image size W H (default 800 600)")->expected(2);
+    app.add_option("-p", o.cell, "Render only the cell X Y DX DY (pixels, from the top left)")->expected(4);
+}
+
+/// The integrator and the acceleration structure.
+void add_accel_options(CLI::App& app, Options& o) {
+    app.add_option("--integrator", o.is.name, "normals | direct | path")
+        ->check(CLI::IsMember({"normals", "direct", "path"}));
+    app.add_option("--accel", o.backend, "naive | custom | embree | plugin:PATH[:OPTIONS]")->check(backend_name());
+    app.add_option("--bvh", o.bvh, "Custom BVH split: midpoint | sah | sbvh (SAH + spatial splits)")
+        ->check(CLI::IsMember({"midpoint", "sah", "sbvh"}));
+    app.add_option("--leaf-size", o.ao.leaf_size, "Custom BVH: maximum primitives per leaf (default 8; 16 with --bvh=sbvh, 4 with midpoint)")
+        ->check(CLI::Range(1, 255));
+    app.add_option("--triangle", o.tri, "Triangle test: fast (Moller-Trumbore) | watertight (Woop 2013)")
+        ->check(CLI::IsMember({"fast", "watertight"}));
+    app.add_option("--embree-quality", o.quality, "Embree build quality: low | medium | high")
+        ->check(CLI::IsMember({"low", "medium", "high"}));
+    app.add_option("--isa", o.isa, "Custom BVH kernel: auto (by CPUID) | sse2 | avx2 | avx512")
+        ->check(CLI::IsMember({"auto", "sse2", "avx2", "avx512"}));
+    app.add_option("--nodes", o.nodes, "Custom BVH node layout: auto (quantized from 4M primitives) | float | quantized (Ylitie 2017)")
+        ->check(CLI::IsMember({"auto", "float", "quantized"}));
+    app.add_flag("--embree-robust", o.ao.embree_robust, "Embree robust traversal mode");
+    app.add_flag("--embree-count", o.ao.embree_count,
+                 "Embree counting mode: triangles through our intersector, so tests per ray are counted");
+}
+
+/// Camera, light semantics, sampling details and what is written besides the image.
+void add_scene_options(CLI::App& app, Options& o) {
+    app.add_option("--camera", o.camera_mode, "auto | course | file (auto: course for .dae, file for glTF)")
+        ->check(CLI::IsMember({"auto", "course", "file"}));
+    app.add_option("--lights", o.lights_mode,
+                   "Which surfaces are lights. course (default for .dae): the course exactly: -l samples "
+                   "only the file's library_lights (CGL area lights: front side only); emissive meshes "
+                   "are seen, from both sides, by camera rays and -H rays only (black to bounce rays), "
+                   "so -H and -l converge to slightly different images, as in the course. mesh (always "
+                   "for glTF): every emissive surface is the light, sampled (by solid angle where near, "
+                   "else by area) and seen by every "
+                   "ray, two-sided for .dae (glTF: the material's doubleSided); an area light describing "
+                   "the same panel is counted once; -H and -l converge to the same image")
+        ->check(CLI::IsMember({"course", "mesh"}));
+    app.add_option("--cam-pos", o.cam_pos, "Camera position X Y Z")->expected(3);
+    app.add_option("--cam-target", o.cam_target, "Camera target X Y Z")->expected(3);
+    app.add_option("--cam-up", o.cam_up, "Camera up X Y Z")->expected(3);
+    app.add_option("--fov", o.fov, "Horizontal field of view, degrees")->check(CLI::Range(0.01f, 179.0f));
+    app.add_option("--seed", o.rs.seed, "Random seed (images are identical for any -t)");
+    app.add_option("--rr", o.is.rr_continue, "Russian roulette continuation probability")
+        ->check(CLI::Range(0.01f, 1.0f));
+    app.add_option("--offset", o.offset,
+                   "How secondary rays leave surfaces: error-bound (default; offset by the hit "
+                   "point's floating-point error bound, pbrt-v4 6.8, robust at any scene scale) | "
+                   "epsilon (plain scale-relative epsilon, for comparison)")
+        ->check(CLI::IsMember({"error-bound", "epsilon"}));
+    app.add_option("--only", o.is.only, "direct | indirect: keep one part of the light")
+        ->check(CLI::IsMember({"direct", "indirect"}));
+    app.add_option("--ocio-config", o.ocio_config, "OpenColorIO config for PNG/JPEG output (default: ours)")
+        ->check(CLI::ExistingFile);
+    app.add_flag("--cost", o.cost,
+                 "Also write heat maps of BVH nodes visited and primitive tests per pixel "
+                 "(NAME_nodes.png, NAME_tests.png), from the backend that did the work");
+    app.add_flag("-q,--quiet", o.quiet, "No progress lines");
+    app.add_flag("--strict", o.strict, "Refuse a scene the loader warns about (e.g. a missing texture file)");
+}
+
+/// Long renders: checkpoints, resuming, a time budget, and how the work is cut up.
+void add_progress_options(CLI::App& app, Options& o) {
+    app.add_option("--checkpoint", o.checkpoint, "Write the accumulated samples to FILE (atomically) "
+                   "between passes, at the end and on Ctrl-C");
+    app.add_option("--checkpoint-every", o.rs.checkpoint_every, "Seconds between checkpoints (default 60)")
+        ->check(CLI::Range(0.0, 1e9));
+    app.add_option("--resume", o.resume, "Continue from a checkpoint FILE to -s samples per pixel "
+                   "(bit-identical to an uninterrupted render)")->check(CLI::ExistingFile);
+    app.add_option("--time-limit", o.rs.time_limit, "Render passes until SECONDS are spent")
+        ->check(CLI::Range(0.0, 1e9));
+    app.add_option("--tile", o.rs.tile, "Tile size in pixels (default 32), the unit handed to threads and ranks")
+        ->check(CLI::Range(1, 4096));
+    app.add_option("--pass", o.rs.pass_spp, "Samples per pixel per pass (default: the -a batch, else 8)")
+        ->check(CLI::Range(1, 1 << 20));
+}
+
+/// The checks CLI11 cannot make (values that depend on each other), and the words turned
+/// into the settings' enums.
+void finish_options(Options& o, const dist::World& world) {
+    renderer::RenderSettings& rs = o.rs;
+    if (world.size > 1 && (!o.checkpoint.empty() || !o.resume.empty() || rs.time_limit > 0))
+        fail("--checkpoint, --resume and --time-limit work in a single process, not under mpirun");
+    if (!o.resolution.empty()) {
+        const std::vector<int>& r = o.resolution;
+        if (r[0] < 1 || r[1] < 1 || r[0] > 65536 || r[1] > 65536)
+            fail(fmt::format("-r {} {}: width and height must be between 1 and 65536", r[0], r[1]));
+        rs.width = r[0];
+        rs.height = r[1];
+    }
+    if (!o.cell.empty()) {
+        const std::vector<int>& c = o.cell;
+        if (c[0] < 0 || c[1] < 0 || c[2] < 1 || c[3] < 1 || c[0] >= rs.width || c[1] >= rs.height)
+            fail(fmt::format("-p {} {} {} {}: the cell must start inside the {}x{} image and be at "
+                             "least 1x1", c[0], c[1], c[2], c[3], rs.width, rs.height));
+        rs.cell = renderer::Cell{c[0], c[1], c[2], c[3]};
+    }
+    if (!o.adaptive.empty()) {
+        const std::vector<float>& a = o.adaptive;
+        if (a[0] < 1 || a[0] != std::floor(a[0]) || !(a[1] > 0))
+            fail(fmt::format("-a {} {}: BATCH must be a whole number >= 1 and TOL > 0", a[0], a[1]));
+        rs.adaptive_batch = int(a[0]);
+        rs.adaptive_tol = a[1];
+    }
+    o.is.accumulate = o.accumulate == 1;
+    o.is.strategy = o.strategy == "light"  ? renderer::IntegratorSettings::Strategy::Light
+                    : o.strategy == "bsdf" ? renderer::IntegratorSettings::Strategy::Bsdf
+                                           : renderer::IntegratorSettings::Strategy::Mis;
+    o.is.offset = o.offset == "epsilon" ? renderer::OffsetMode::Epsilon : renderer::OffsetMode::ErrorBound;
+    o.ao.split = o.bvh == "midpoint" ? accel::BvhSplit::Midpoint
+                 : o.bvh == "sbvh"   ? accel::BvhSplit::Sbvh
+                                     : accel::BvhSplit::Sah;
+    o.ao.triangle = o.tri == "watertight" ? accel::TriangleTest::Watertight : accel::TriangleTest::Fast;
+    accel::parse_isa(o.isa, o.ao.isa);
+    accel::parse_layout(o.nodes, o.ao.nodes);
+    o.ao.embree_quality = o.quality == "low"      ? accel::EmbreeQuality::Low
+                          : o.quality == "medium" ? accel::EmbreeQuality::Medium
+                                                  : accel::EmbreeQuality::High;
+    // The course names the image after the scene.
+    if (o.output.empty()) o.output = std::filesystem::path(o.scene_path).stem().string() + ".png";
+    rs.progress = !o.quiet && world.root();
+    rs.cancel = &g_cancel;
 }
 
 /// "foo.png" -> "foo_rate.png" (the course's name for the sample-rate image).
@@ -59,6 +246,46 @@ std::string fingerprint(const CLI::App& app, const std::string& scene_path, int 
     uint64_t h = 1469598103934665603ull;  // FNV-1a of the scene file
     for (char c; in.get(c);) h = (h ^ uint8_t(c)) * 1099511628211ull;
     return out + fmt::format("scene-fnv1a={:016x};jitter={}", h, spp > 1);
+}
+
+/// -e: the environment map joins the scene as one more (importance-sampled) light.
+void add_environment(scenes::Scene& scene, const std::string& env_map) {
+    try {
+        scene.textures.push_back(renderer::load_environment_image(env_map));
+    } catch (const scenes::SceneError& e) {
+        fail(e.what());
+    }
+    scenes::Light env;
+    env.type = scenes::LightType::Environment;
+    env.name = env_map;
+    env.texture = uint32_t(scene.textures.size() - 1);
+    scene.lights.push_back(env);
+    std::fprintf(stderr, "[PathTracer] Environment map %s (%ux%u), importance-sampled\n", env_map.c_str(),
+                 scene.textures.back().width, scene.textures.back().height);
+}
+
+/// Loads the scene with the course's progress lines; refuses one with nothing to render.
+scenes::Scene load_scene(const Options& o) {
+    std::fprintf(stderr, "[PathTracer] Collecting primitives... ");
+    std::fflush(stderr);
+    auto t0 = std::chrono::steady_clock::now();
+    scenes::Scene scene;
+    try {
+        scene = scenes::load_scene(o.scene_path);
+    } catch (const scenes::SceneError& e) {
+        std::fprintf(stderr, "\n");
+        fail(e.what());
+    }
+    std::fprintf(stderr, "Done! (%.4f sec)\n",
+                 std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
+    std::fputs(scenes::scene_summary(scene).c_str(), stderr);
+    for (const std::string& note : scene.notes) std::fprintf(stderr, "[PathTracer] Note: %s\n", note.c_str());
+    for (const std::string& w : scene.warnings) std::fprintf(stderr, "[PathTracer] Warning: %s\n", w.c_str());
+    if (o.strict && !scene.warnings.empty()) fail(scene.warnings.front() + " (--strict)");
+    if (scene.num_triangles() == 0 && scene.spheres.empty())
+        fail(fmt::format("{}: the scene has no geometry to render", o.scene_path));
+    if (!o.env_map.empty()) add_environment(scene, o.env_map);
+    return scene;
 }
 
 /// -c (the course's camera settings file) replaces the camera; -b/-d (or the file's 3-2
@@ -93,282 +320,58 @@ void apply_course_camera(renderer::CameraSetup& cam, const std::string& file, fl
     }
 }
 
-}  // namespace
-
-int main(int argc, char** argv) {
-    CLI::App app{"Physically based path tracer: diffuse, mirror, glass, microfacet, glTF PBR and unlit materials (CS184 dialect "
-                 "COLLADA, glTF 2.0), on our own BVH or on Embree."};
-    app.set_help_flag("-h,--help", "Print this help and exit");
-
-    std::string scene_path;
-    renderer::RenderSettings rs;
-    renderer::IntegratorSettings is;
-    accel::AccelOptions ao;
-    std::string backend = "custom", bvh = "sah", tri = "fast", quality = "high", camera_mode = "auto", isa = "auto";
-    std::string output;
-    std::vector<int> resolution, cell;
-    std::vector<float> adaptive;
-    int accumulate = 1;
-    std::vector<float> cam_pos, cam_target, cam_up;
-    float fov = 0;
-    bool quiet = false, cost = false, strict = false;
-    std::string ocio_config;
-    std::string env_map, camera_file;
-    float lens_radius = -1, focal_distance = -1;
-    std::string strategy = "mis";
-
-    app.add_option("scene", scene_path,
-                   "Scene file: .dae (CS184 COLLADA, CGL or CMU462 profile), .gltf or .glb (glTF 2.0 with "
-                   "KHR_draco_mesh_compression, KHR_mesh_quantization, KHR_texture_transform, "
-                   "KHR_lights_punctual, KHR_materials_emissive_strength, KHR_materials_transmission, "
-                   "KHR_materials_ior, KHR_materials_unlit)")
-        ->required();
-    app.add_option("-s", rs.spp, "Samples per pixel (the cap under -a)")->check(CLI::Range(1, 1 << 20));
-    app.add_option("-l", is.light_samples, "Samples per area light")->check(CLI::Range(1, 1 << 16));
-    app.add_option("-t", rs.threads, "Render threads (default: all cores)")->check(CLI::Range(1, 1024));
-    app.add_option("-m", is.max_depth, "Maximum ray depth (0 = emission only, 1 = direct only)")
-        ->check(CLI::Range(0, 100000));
-    app.add_option("-o", accumulate, "1: accumulate all bounces (default); 0: only light of exactly -m bounces")
-        ->check(CLI::IsMember({0, 1}));
-    app.add_option("-a", adaptive, "Adaptive sampling: BATCH TOL (stop a pixel when 1.96*sigma/sqrt(n) <= TOL*mean)")
-        ->expected(2);
-    app.add_flag("-H", is.hemisphere, "Direct lighting by uniform hemisphere sampling instead of light sampling "
-                                      "(under --lights=course it converges to a slightly different image than "
-                                      "light sampling, as in the course)");
-    app.add_option("-e", env_map, "Environment map: latitude-longitude EXR/HDR, importance-sampled");
-    app.add_option("-b", lens_radius, "Thin lens radius (0 = pinhole)")->check(CLI::Range(0.0f, 1e30f));
-    app.add_option("-d", focal_distance, "Focal distance of the thin lens (default: to the scene centre)")
-        ->check(CLI::PositiveNumber);
-    app.add_option("--strategy", strategy, "Direct light at non-diffuse surfaces: mis | light | bsdf (bsdf is mis under --lights=course, where bounces do not see emitters)")
-        ->check(CLI::IsMember({"mis", "light", "bsdf"}));
-    app.add_option("-c", camera_file, "Camera settings file of the course application (overrides the scene's camera)");
-    app.add_option("-f", output, "Output image (.png, .jpg, .exr; default: SCENE-NAME.png)");
-    app.add_option("-r", resolution, "Image size W H (default 800 600)")->expected(2);
-    app.add_option("-p", cell, "Render only the cell X Y DX DY (pixels, from the top left)")->expected(4);
-    app.add_option("--integrator", is.name, "normals | direct | path")
-        ->check(CLI::IsMember({"normals", "direct", "path"}));
-    app.add_option("--accel", backend, "naive | custom | embree")
-        ->check(CLI::IsMember({"naive", "custom", "embree"}));
-    app.add_option("--bvh", bvh, "Custom BVH split: midpoint | sah | sbvh (SAH + spatial splits)")
-        ->check(CLI::IsMember({"midpoint", "sah", "sbvh"}));
-    app.add_option("--leaf-size", ao.leaf_size, "Custom BVH: maximum primitives per leaf (default 8; 16 with --bvh=sbvh, 4 with midpoint)")
-        ->check(CLI::Range(1, 255));
-    app.add_option("--triangle", tri, "Triangle test: fast (Moller-Trumbore) | watertight (Woop 2013)")
-        ->check(CLI::IsMember({"fast", "watertight"}));
-    app.add_option("--embree-quality", quality, "Embree build quality: low | medium | high")
-        ->check(CLI::IsMember({"low", "medium", "high"}));
-    app.add_option("--isa", isa, "Custom BVH kernel: auto (by CPUID) | sse2 | avx2 | avx512")
-        ->check(CLI::IsMember({"auto", "sse2", "avx2", "avx512"}));
-    std::string nodes = "auto";
-    app.add_option("--nodes", nodes, "Custom BVH node layout: auto (quantized from 4M primitives) | float | quantized (Ylitie 2017)")
-        ->check(CLI::IsMember({"auto", "float", "quantized"}));
-    app.add_flag("--embree-robust", ao.embree_robust, "Embree robust traversal mode");
-    app.add_flag("--embree-count", ao.embree_count,
-                 "Embree counting mode: triangles through our intersector, so tests per ray are counted");
-    app.add_option("--camera", camera_mode, "auto | course | file (auto: course for .dae, file for glTF)")
-        ->check(CLI::IsMember({"auto", "course", "file"}));
-    std::string lights_mode;
-    app.add_option("--lights", lights_mode,
-                   "Which surfaces are lights. course (default for .dae): the course exactly: -l samples "
-                   "only the file's library_lights (CGL area lights: front side only); emissive meshes "
-                   "are seen, from both sides, by camera rays and -H rays only (black to bounce rays), "
-                   "so -H and -l converge to slightly different images, as in the course. mesh (always "
-                   "for glTF): every emissive surface is the light, sampled (by solid angle where near, "
-                   "else by area) and seen by every "
-                   "ray, two-sided for .dae (glTF: the material's doubleSided); an area light describing "
-                   "the same panel is counted once; -H and -l converge to the same image")
-        ->check(CLI::IsMember({"course", "mesh"}));
-    app.add_option("--cam-pos", cam_pos, "Camera position X Y Z")->expected(3);
-    app.add_option("--cam-target", cam_target, "Camera target X Y Z")->expected(3);
-    app.add_option("--cam-up", cam_up, "Camera up X Y Z")->expected(3);
-    app.add_option("--fov", fov, "Horizontal field of view, degrees")->check(CLI::Range(0.01f, 179.0f));
-    app.add_option("--seed", rs.seed, "Random seed (images are identical for any -t)");
-    app.add_option("--rr", is.rr_continue, "Russian roulette continuation probability")
-        ->check(CLI::Range(0.01f, 1.0f));
-    std::string offset = "error-bound";
-    app.add_option("--offset", offset,
-                   "How secondary rays leave surfaces: error-bound (default; offset by the hit "
-                   "point's floating-point error bound, pbrt-v4 6.8, robust at any scene scale) | "
-                   "epsilon (plain scale-relative epsilon, for comparison)")
-        ->check(CLI::IsMember({"error-bound", "epsilon"}));
-    app.add_option("--only", is.only, "direct | indirect: keep one part of the light")
-        ->check(CLI::IsMember({"direct", "indirect"}));
-    app.add_option("--ocio-config", ocio_config, "OpenColorIO config for PNG/JPEG output (default: ours)")
-        ->check(CLI::ExistingFile);
-    app.add_flag("--cost", cost,
-                 "Also write heat maps of BVH nodes visited and primitive tests per pixel "
-                 "(NAME_nodes.png, NAME_tests.png), from the backend that did the work");
-    app.add_flag("-q,--quiet", quiet, "No progress lines");
-    app.add_flag("--strict", strict, "Refuse a scene the loader warns about (e.g. a missing texture file)");
-    std::string checkpoint, resume;
-    app.add_option("--checkpoint", checkpoint, "Write the accumulated samples to FILE (atomically) "
-                   "between passes, at the end and on Ctrl-C");
-    app.add_option("--checkpoint-every", rs.checkpoint_every, "Seconds between checkpoints (default 60)")
-        ->check(CLI::Range(0.0, 1e9));
-    app.add_option("--resume", resume, "Continue from a checkpoint FILE to -s samples per pixel "
-                   "(bit-identical to an uninterrupted render)")->check(CLI::ExistingFile);
-    app.add_option("--time-limit", rs.time_limit, "Render passes until SECONDS are spent")
-        ->check(CLI::Range(0.0, 1e9));
-    app.add_option("--tile", rs.tile, "Tile size in pixels (default 32), the unit handed to threads and ranks")
-        ->check(CLI::Range(1, 4096));
-    app.add_option("--pass", rs.pass_spp, "Samples per pixel per pass (default: the -a batch, else 8)")
-        ->check(CLI::Range(1, 1 << 20));
-
-    tools::parse_or_exit(app, argc, argv, "pathtracer");
-    const dist::World world = dist::init(argc, argv, "pathtracer");
-    if (world.size > 1 && (!checkpoint.empty() || !resume.empty() || rs.time_limit > 0))
-        fail("--checkpoint, --resume and --time-limit work in a single process, not under mpirun");
-
-    if (!resolution.empty()) {
-        if (resolution[0] < 1 || resolution[1] < 1 || resolution[0] > 65536 || resolution[1] > 65536)
-            fail(fmt::format("-r {} {}: width and height must be between 1 and 65536", resolution[0],
-                             resolution[1]));
-        rs.width = resolution[0];
-        rs.height = resolution[1];
-    }
-    if (!cell.empty()) {
-        if (cell[0] < 0 || cell[1] < 0 || cell[2] < 1 || cell[3] < 1 || cell[0] >= rs.width ||
-            cell[1] >= rs.height)
-            fail(fmt::format("-p {} {} {} {}: the cell must start inside the {}x{} image and be at "
-                             "least 1x1", cell[0], cell[1], cell[2], cell[3], rs.width, rs.height));
-        rs.cell = renderer::Cell{cell[0], cell[1], cell[2], cell[3]};
-    }
-    if (!adaptive.empty()) {
-        if (adaptive[0] < 1 || adaptive[0] != std::floor(adaptive[0]) || !(adaptive[1] > 0))
-            fail(fmt::format("-a {} {}: BATCH must be a whole number >= 1 and TOL > 0", adaptive[0],
-                             adaptive[1]));
-        rs.adaptive_batch = int(adaptive[0]);
-        rs.adaptive_tol = adaptive[1];
-    }
-    is.accumulate = accumulate == 1;
-    is.strategy = strategy == "light"  ? renderer::IntegratorSettings::Strategy::Light
-                  : strategy == "bsdf" ? renderer::IntegratorSettings::Strategy::Bsdf
-                                       : renderer::IntegratorSettings::Strategy::Mis;
-    is.offset = offset == "epsilon" ? renderer::OffsetMode::Epsilon : renderer::OffsetMode::ErrorBound;
-    ao.split = bvh == "midpoint" ? accel::BvhSplit::Midpoint
-               : bvh == "sbvh"   ? accel::BvhSplit::Sbvh
-                                 : accel::BvhSplit::Sah;
-    ao.triangle = tri == "watertight" ? accel::TriangleTest::Watertight : accel::TriangleTest::Fast;
-    accel::parse_isa(isa, ao.isa);
-    accel::parse_layout(nodes, ao.nodes);
-    ao.embree_quality = quality == "low"      ? accel::EmbreeQuality::Low
-                        : quality == "medium" ? accel::EmbreeQuality::Medium
-                                              : accel::EmbreeQuality::High;
-    if (output.empty()) output = default_output(scene_path);
-    rs.progress = !quiet && world.root();
-    rs.cancel = &g_cancel;
-
-    const int threads = rs.threads > 0 ? rs.threads : int(std::max(1u, std::thread::hardware_concurrency()));
-    std::fprintf(stderr, "[PathTracer] Input scene file: %s\n", scene_path.c_str());
-    std::fprintf(stderr, "[PathTracer] Rendering using %d threads%s\n", threads,
-                 world.size > 1 ? fmt::format(" on each of {} MPI ranks", world.size).c_str() : "");
-
-    // Load.
-    std::fprintf(stderr, "[PathTracer] Collecting primitives... ");
-    std::fflush(stderr);
-    auto t0 = std::chrono::steady_clock::now();
-    scenes::Scene scene;
-    try {
-        scene = scenes::load_scene(scene_path);
-    } catch (const scenes::SceneError& e) {
-        std::fprintf(stderr, "\n");
-        fail(e.what());
-    }
-    std::fprintf(stderr, "Done! (%.4f sec)\n",
-                 std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
-    std::fputs(scenes::scene_summary(scene).c_str(), stderr);
-    for (const std::string& note : scene.notes) std::fprintf(stderr, "[PathTracer] Note: %s\n", note.c_str());
-    for (const std::string& w : scene.warnings) std::fprintf(stderr, "[PathTracer] Warning: %s\n", w.c_str());
-    if (strict && !scene.warnings.empty()) fail(scene.warnings.front() + " (--strict)");
-    if (scene.num_triangles() == 0 && scene.spheres.empty())
-        fail(fmt::format("{}: the scene has no geometry to render", scene_path));
-
-    if (!env_map.empty()) {
-        try {
-            scene.textures.push_back(renderer::load_environment_image(env_map));
-        } catch (const scenes::SceneError& e) {
-            fail(e.what());
-        }
-        scenes::Light env;
-        env.type = scenes::LightType::Environment;
-        env.name = env_map;
-        env.texture = uint32_t(scene.textures.size() - 1);
-        scene.lights.push_back(env);
-        std::fprintf(stderr, "[PathTracer] Environment map %s (%ux%u), importance-sampled\n", env_map.c_str(),
-                     scene.textures.back().width, scene.textures.back().height);
-    }
-
-    // Camera.
+/// The scene's camera (--camera), with --cam-*/--fov overrides, then -c and the lens.
+renderer::CameraSetup setup_camera(const Options& o, const scenes::Scene& scene) {
     renderer::CameraOverrides ov;
-    if (!cam_pos.empty()) ov.position = accel::Vec3f(cam_pos[0], cam_pos[1], cam_pos[2]);
-    if (!cam_target.empty()) ov.target = accel::Vec3f(cam_target[0], cam_target[1], cam_target[2]);
-    if (!cam_up.empty()) ov.up = accel::Vec3f(cam_up[0], cam_up[1], cam_up[2]);
-    if (fov > 0) ov.hfov_deg = fov;
-    const renderer::CameraMode mode = camera_mode == "course" ? renderer::CameraMode::Course
-                                      : camera_mode == "file" ? renderer::CameraMode::File
-                                                              : renderer::CameraMode::Auto;
-    renderer::CameraSetup cam = renderer::make_camera(scene, mode, rs.width, rs.height, ov);
-    apply_course_camera(cam, camera_file, lens_radius, focal_distance, scene, rs.width, rs.height);
+    if (!o.cam_pos.empty()) ov.position = accel::Vec3f(o.cam_pos[0], o.cam_pos[1], o.cam_pos[2]);
+    if (!o.cam_target.empty()) ov.target = accel::Vec3f(o.cam_target[0], o.cam_target[1], o.cam_target[2]);
+    if (!o.cam_up.empty()) ov.up = accel::Vec3f(o.cam_up[0], o.cam_up[1], o.cam_up[2]);
+    if (o.fov > 0) ov.hfov_deg = o.fov;
+    const renderer::CameraMode mode = o.camera_mode == "course" ? renderer::CameraMode::Course
+                                      : o.camera_mode == "file" ? renderer::CameraMode::File
+                                                                : renderer::CameraMode::Auto;
+    renderer::CameraSetup cam = renderer::make_camera(scene, mode, o.rs.width, o.rs.height, ov);
+    apply_course_camera(cam, o.camera_file, o.lens_radius, o.focal_distance, scene, o.rs.width, o.rs.height);
     std::fprintf(stderr, "%s\n", cam.description.c_str());
+    return cam;
+}
 
-    // Accelerator and integrator.
-    renderer::SceneGeometry geometry(scene);
-    std::unique_ptr<renderer::LightSet> lights;
-    if (is.name != "normals") {
-        std::vector<std::string> notes;
-        lights = std::make_unique<renderer::LightSet>(
-            scene, renderer::parse_light_model(lights_mode, scene.format), notes);
-        std::fprintf(stderr, "[PathTracer] Light semantics: --lights=%s\n", renderer::light_model_name(lights->model()));
-        std::fprintf(stderr, "%s\n", lights->summary().c_str());
-        for (const std::string& note : notes) std::fprintf(stderr, "[PathTracer] Note: %s\n", note.c_str());
-    }
-    std::unique_ptr<accel::Accelerator> accel;
-    std::unique_ptr<renderer::Integrator> integrator;
-    try {
-        integrator = renderer::make_integrator(is, scene, geometry, lights.get());
-        accel = renderer::build_accelerator(backend, geometry, ao);
-    } catch (const accel::AccelError& e) {
-        fail(e.what());
-    } catch (const std::invalid_argument& e) {
-        fail(e.what());
-    }
+/// The lights, under --lights' semantics; none for the normals integrator, which has no use
+/// for them.
+std::unique_ptr<renderer::LightSet> make_lights(const Options& o, const scenes::Scene& scene) {
+    if (o.is.name == "normals") return nullptr;
+    std::vector<std::string> notes;
+    auto lights = std::make_unique<renderer::LightSet>(
+        scene, renderer::parse_light_model(o.lights_mode, scene.format), notes);
+    std::fprintf(stderr, "[PathTracer] Light semantics: --lights=%s\n", renderer::light_model_name(lights->model()));
+    std::fprintf(stderr, "%s\n", lights->summary().c_str());
+    for (const std::string& note : notes) std::fprintf(stderr, "[PathTracer] Note: %s\n", note.c_str());
+    return lights;
+}
 
-    const std::string fp = fingerprint(app, scene_path, rs.spp);
-    renderer::Accumulation resumed;
-    if (!resume.empty()) {
+/// --resume reads the accumulated samples (`resumed` must outlive the render); --checkpoint
+/// writes them between passes. Both are tied to `fp`, the options and scene that made them.
+void setup_checkpoints(Options& o, const std::string& fp, renderer::Accumulation& resumed) {
+    if (!o.resume.empty()) {
         try {
-            resumed = renderer::read_checkpoint(resume, fp);
+            resumed = renderer::read_checkpoint(o.resume, fp);
         } catch (const renderer::CheckpointError& e) {
             fail(e.what());
         }
-        rs.resume = &resumed;
+        o.rs.resume = &resumed;
     }
-    if (!checkpoint.empty())
-        rs.on_checkpoint = [&](const renderer::Accumulation& acc, bool) {
+    if (!o.checkpoint.empty())
+        o.rs.on_checkpoint = [path = o.checkpoint, fp](const renderer::Accumulation& acc, bool) {
             try {
-                renderer::write_checkpoint(checkpoint, acc, fp);
+                renderer::write_checkpoint(path, acc, fp);
             } catch (const renderer::CheckpointError& e) {
                 fail(e.what());
             }
         };
+}
 
-    std::signal(SIGINT, on_sigint);
-    renderer::RenderResult result;
-    const std::unique_ptr<renderer::TileSource> tiles = dist::make_tile_source(world);
-    rs.tiles = tiles.get();
-    try {
-        result = renderer::render(cam.camera, *integrator, *accel, rs);
-    } catch (const std::invalid_argument& e) {
-        fail(e.what());
-    }
-    if (!world.root()) {  // rank 0 has gathered this rank's tiles and writes the files
-        dist::finalize();
-        return 0;
-    }
-    std::signal(SIGINT, SIG_DFL);
-
-    // Statistics go to stdout, as results.
-    const accel::BuildInfo& info = accel->info();
+/// The course's statistics lines, on stdout as results.
+void print_statistics(const renderer::RenderResult& result, const accel::BuildInfo& info) {
     std::printf("[PathTracer] BVH traced %llu rays.\n", (unsigned long long)result.stats.total_rays());
     if (info.counts_prims)
         std::printf("[PathTracer] Averaged %.6f intersection tests per ray.\n", result.stats.tests_per_ray());
@@ -383,25 +386,31 @@ int main(int argc, char** argv) {
     if (result.nan_samples)
         std::printf("[PathTracer] Dropped %llu NaN/Inf samples (counted in the EXR 'nan' channel)\n",
                     (unsigned long long)result.nan_samples);
+}
 
+/// The image, written whole or not at all; an interrupted render is marked partial.
+void write_main_image(const Options& o, const renderer::RenderResult& result, bool display_referred) {
     renderer::WriteOptions wo;
-    wo.encoding = integrator->display_referred() ? renderer::Encoding::Display : renderer::Encoding::SceneLinear;
-    wo.ocio_config = ocio_config;
+    wo.encoding = display_referred ? renderer::Encoding::Display : renderer::Encoding::SceneLinear;
+    wo.ocio_config = o.ocio_config;
     if (result.partial) wo.attributes.push_back({"pathtracer:partial", "1"});
-    std::fprintf(stderr, "[PathTracer] Saving to file: %s... ", output.c_str());
+    std::fprintf(stderr, "[PathTracer] Saving to file: %s... ", o.output.c_str());
     try {
-        renderer::write_image(output, result.image, wo);
+        renderer::write_image(o.output, result.image, wo);
     } catch (const std::exception& e) {
         std::fprintf(stderr, "\n");
         fail(e.what());
     }
     std::fprintf(stderr, "Done!\n");
-    std::printf("Wrote %s%s\n", output.c_str(), result.partial ? " (partial: interrupted)" : "");
+    std::printf("Wrote %s%s\n", o.output.c_str(), result.partial ? " (partial: interrupted)" : "");
     if (result.time_limited)
         std::printf("[PathTracer] Time limit: %.2f samples per pixel of %d\n",
-                    double(result.samples) / double(size_t(rs.width) * rs.height), rs.spp);
+                    double(result.samples) / double(size_t(o.rs.width) * o.rs.height), o.rs.spp);
+}
 
-    // Side images: the sample-rate heat map (course name NAME_rate.png) and the cost maps.
+/// Side images: the sample-rate heat map (course name NAME_rate.png) and the cost maps.
+void write_side_images(const Options& o, const renderer::RenderResult& result) {
+    const renderer::RenderSettings& rs = o.rs;
     auto channel = [&](int c) {
         std::vector<float> v(size_t(rs.width) * rs.height);
         for (size_t i = 0; i < v.size(); ++i) v[i] = result.image.pixels[i * result.image.nchannels() + c];
@@ -410,7 +419,7 @@ int main(int argc, char** argv) {
     auto write_heat = [&](int c, const std::string& suffix) {
         std::vector<float> v = channel(c);
         const float hi = *std::max_element(v.begin(), v.end());
-        const std::string path = sibling(output, suffix, ".png");
+        const std::string path = sibling(o.output, suffix, ".png");
         renderer::WriteOptions ho;
         ho.encoding = renderer::Encoding::Display;
         try {
@@ -428,10 +437,70 @@ int main(int argc, char** argv) {
         std::printf("[PathTracer] Adaptive sampling: %.2f samples per pixel on average (cap %d)\n",
                     total / double(v.size()), rs.spp);
     }
-    if (cost) {
+    if (o.cost) {
         write_heat(renderer::kCostNodes, "_nodes");
         write_heat(renderer::kCostTests, "_tests");
     }
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+    CLI::App app{"Physically based path tracer: diffuse, mirror, glass, microfacet, glTF PBR and unlit materials (CS184 dialect "
+                 "COLLADA, glTF 2.0), on our own BVH or on Embree."};
+    app.set_help_flag("-h,--help", "Print this help and exit");
+    Options o;
+    add_course_options(app, o);
+    add_accel_options(app, o);
+    add_scene_options(app, o);
+    add_progress_options(app, o);
+    tools::parse_or_exit(app, argc, argv, "pathtracer");
+    const dist::World world = dist::init(argc, argv, "pathtracer");
+    finish_options(o, world);
+
+    const int threads = o.rs.threads > 0 ? o.rs.threads : int(std::max(1u, std::thread::hardware_concurrency()));
+    std::fprintf(stderr, "[PathTracer] Input scene file: %s\n", o.scene_path.c_str());
+    std::fprintf(stderr, "[PathTracer] Rendering using %d threads%s\n", threads,
+                 world.size > 1 ? fmt::format(" on each of {} MPI ranks", world.size).c_str() : "");
+
+    // Set-up: scene, camera, lights, integrator, accelerator, checkpoints.
+    scenes::Scene scene = load_scene(o);
+    const renderer::CameraSetup cam = setup_camera(o, scene);
+    renderer::SceneGeometry geometry(scene);
+    const std::unique_ptr<renderer::LightSet> lights = make_lights(o, scene);
+    std::unique_ptr<accel::Accelerator> accel;
+    std::unique_ptr<renderer::Integrator> integrator;
+    try {
+        integrator = renderer::make_integrator(o.is, scene, geometry, lights.get());
+        accel = renderer::build_accelerator(o.backend, geometry, o.ao);
+    } catch (const accel::AccelError& e) {
+        fail(e.what());
+    } catch (const std::invalid_argument& e) {
+        fail(e.what());
+    }
+    renderer::Accumulation resumed;
+    setup_checkpoints(o, fingerprint(app, o.scene_path, o.rs.spp), resumed);
+
+    // Run.
+    std::signal(SIGINT, on_sigint);
+    renderer::RenderResult result;
+    const std::unique_ptr<renderer::TileSource> tiles = dist::make_tile_source(world);
+    o.rs.tiles = tiles.get();
+    try {
+        result = renderer::render(cam.camera, *integrator, *accel, o.rs);
+    } catch (const std::invalid_argument& e) {
+        fail(e.what());
+    }
+    if (!world.root()) {  // rank 0 has gathered this rank's tiles and writes the files
+        dist::finalize();
+        return 0;
+    }
+    std::signal(SIGINT, SIG_DFL);
+
+    // Output.
+    print_statistics(result, accel->info());
+    write_main_image(o, result, integrator->display_referred());
+    write_side_images(o, result);
     dist::finalize();
     return result.partial ? 130 : 0;
 }
