@@ -20,6 +20,35 @@ namespace {
 
 [[noreturn]] void fail(const std::string& message) { tools::fail("xcheck", message); }
 
+/// Every option, as CLI11 fills it.
+struct Options {
+    std::string scene_path, backends_arg, reference_arg, kinds_arg, dump_path, replay_path;
+    size_t rays = 200000;
+    uint64_t seed = 1;
+    std::string isa_arg = "auto", nodes_arg = "auto";
+};
+
+void add_options(CLI::App& app, Options& o) {
+    app.add_option("scene", o.scene_path, "Scene file (.dae, .gltf, .glb)")->required();
+    app.add_option("--rays", o.rays, "Rays per kind")->check(CLI::Range(size_t(1), size_t(100000000)));
+    app.add_option("--backends", o.backends_arg,
+                   "Comma-separated backends to check, e.g. custom:sah:fast,custom:midpoint:watertight,"
+                   "embree:high (default: custom with every split and both triangle tests, embree; "
+                   "naive too up to 10k triangles)");
+    app.add_option("--reference", o.reference_arg,
+                   "Reference backend (default: naive:watertight up to 10k triangles, else embree:high)");
+    app.add_option("--kinds", o.kinds_arg, "Comma-separated ray kinds (default: all): camera,random,"
+                                           "edge-vertex,grazing,shadow,diffuse");
+    app.add_option("--seed", o.seed, "Seed of the ray sets");
+    app.add_option("--isa", o.isa_arg, "Kernel of custom backends that name none: auto | sse2 | avx2 | avx512")
+        ->check(CLI::IsMember({"auto", "sse2", "avx2", "avx512"}));
+    app.add_option("--nodes", o.nodes_arg, "Node layout of custom backends that name none: auto (quantized from 4M primitives) | float | quantized")
+        ->check(CLI::IsMember({"auto", "float", "quantized"}));
+    app.add_option("--dump", o.dump_path, "Write the disagreeing rays to FILE (replayable)");
+    app.add_option("--replay", o.replay_path, "Trace the rays of FILE (from --dump) instead of generating rays")
+        ->check(CLI::ExistingFile);
+}
+
 /// Hex floats: a dumped ray replays bit for bit.
 std::string ray_line(renderer::RayKind kind, const accel::Ray& r) {
     return fmt::format("{} {:a} {:a} {:a} {:a} {:a} {:a} {:a} {:a}", renderer::ray_kind_name(kind),
@@ -65,50 +94,23 @@ std::vector<renderer::RaySet> read_replay(const std::string& path) {
     return out;
 }
 
-}  // namespace
+/// The reference and the backends checked against it (the reference itself left out).
+struct Backends {
+    renderer::BackendSpec ref;
+    std::vector<renderer::BackendSpec> specs;
+};
 
-int main(int argc, char** argv) {
-    CLI::App app{"Cross-check backends ray by ray: camera, random, edge/vertex, grazing, shadow and "
-                 "diffuse-bounce rays, each disagreement classified (tie, numerical, real)."};
-    std::string scene_path, backends_arg, reference_arg, kinds_arg, dump_path, replay_path;
-    size_t rays = 200000;
-    uint64_t seed = 1;
-    app.add_option("scene", scene_path, "Scene file (.dae, .gltf, .glb)")->required();
-    app.add_option("--rays", rays, "Rays per kind")->check(CLI::Range(size_t(1), size_t(100000000)));
-    app.add_option("--backends", backends_arg,
-                   "Comma-separated backends to check, e.g. custom:sah:fast,custom:midpoint:watertight,"
-                   "embree:high (default: custom with every split and both triangle tests, embree; "
-                   "naive too up to 10k triangles)");
-    app.add_option("--reference", reference_arg,
-                   "Reference backend (default: naive:watertight up to 10k triangles, else embree:high)");
-    app.add_option("--kinds", kinds_arg, "Comma-separated ray kinds (default: all): camera,random,"
-                                         "edge-vertex,grazing,shadow,diffuse");
-    app.add_option("--seed", seed, "Seed of the ray sets");
-    std::string isa_arg = "auto";
-    app.add_option("--isa", isa_arg, "Kernel of custom backends that name none: auto | sse2 | avx2 | avx512")
-        ->check(CLI::IsMember({"auto", "sse2", "avx2", "avx512"}));
-    std::string nodes_arg = "auto";
-    app.add_option("--nodes", nodes_arg, "Node layout of custom backends that name none: auto (quantized from 4M primitives) | float | quantized")
-        ->check(CLI::IsMember({"auto", "float", "quantized"}));
-    app.add_option("--dump", dump_path, "Write the disagreeing rays to FILE (replayable)");
-    app.add_option("--replay", replay_path, "Trace the rays of FILE (from --dump) instead of generating rays")
-        ->check(CLI::ExistingFile);
-    tools::parse_or_exit(app, argc, argv, "xcheck");
-    const scenes::Scene scene = tools::load_scene_or_exit(scene_path, "xcheck");
-    const uint64_t tris = scene.num_triangles();
-    if (tris == 0 && scene.spheres.empty()) fail(scene_path + ": the scene has no geometry");
-    const bool small = tris <= 10000;
+/// Small scenes (up to 10k triangles) get the exact naive reference; larger ones Embree.
+Backends choose_backends(const Options& o, bool small) {
     const auto available = accel::available_backends();
     const bool have_embree = std::find(available.begin(), available.end(), "embree") != available.end();
-
-    std::vector<renderer::BackendSpec> specs;
-    renderer::BackendSpec ref;
+    Backends b;
     try {
-        ref = renderer::parse_backend_spec(!reference_arg.empty() ? reference_arg
-                                           : small                ? "naive:watertight"
-                                           : have_embree          ? "embree:high"
-                                                                  : "custom:sah:watertight");
-        std::string list = backends_arg;
+        b.ref = renderer::parse_backend_spec(!o.reference_arg.empty() ? o.reference_arg
+                                             : small                  ? "naive:watertight"
+                                             : have_embree            ? "embree:high"
+                                                                      : "custom:sah:watertight");
+        std::string list = o.backends_arg;
         if (list.empty()) {
             list = "custom:sah:fast,custom:sah:watertight,custom:midpoint:fast,custom:midpoint:watertight,"
                    "custom:sbvh:fast,custom:sbvh:watertight";
@@ -116,18 +118,21 @@ int main(int argc, char** argv) {
             if (small) list += ",naive:fast";
         }
         accel::Isa isa = accel::Isa::Auto;
-        accel::parse_isa(isa_arg, isa);
+        accel::parse_isa(o.isa_arg, isa);
         std::vector<renderer::BackendSpec> all = renderer::parse_backend_specs(list);
         renderer::apply_isa(all, isa);
         accel::NodeLayout layout = accel::NodeLayout::Auto;
-        accel::parse_layout(nodes_arg, layout);
+        accel::parse_layout(o.nodes_arg, layout);
         renderer::apply_layout(all, layout);
         for (auto& s : all)
-            if (s.label != ref.label) specs.push_back(s);
+            if (s.label != b.ref.label) b.specs.push_back(s);
     } catch (const std::invalid_argument& e) {
         fail(e.what());
     }
+    return b;
+}
 
+std::vector<renderer::RayKind> parse_kinds(const std::string& kinds_arg) {
     std::vector<renderer::RayKind> kinds;
     if (kinds_arg.empty()) {
         kinds.assign(std::begin(renderer::kAllRayKinds), std::end(renderer::kAllRayKinds));
@@ -139,48 +144,61 @@ int main(int argc, char** argv) {
             kinds.push_back(kind);
         }
     }
+    return kinds;
+}
 
-    renderer::SceneGeometry geometry(scene);
-    std::unique_ptr<accel::Accelerator> ref_accel;
-    std::vector<std::unique_ptr<accel::Accelerator>> accels;
+/// Every backend, built; the reference first.
+struct Built {
+    std::unique_ptr<accel::Accelerator> ref;
+    std::vector<std::unique_ptr<accel::Accelerator>> others;
+};
+
+Built build_all(const Backends& b, const renderer::SceneGeometry& geometry) {
+    Built built;
     try {
-        ref_accel = renderer::build_accelerator(ref.backend, geometry, ref.options, false);
-        for (const auto& s : specs) accels.push_back(renderer::build_accelerator(s.backend, geometry, s.options, false));
+        built.ref = renderer::build_accelerator(b.ref.backend, geometry, b.ref.options, false);
+        for (const auto& s : b.specs)
+            built.others.push_back(renderer::build_accelerator(s.backend, geometry, s.options, false));
     } catch (const accel::AccelError& e) {
         fail(e.what());
     }
+    return built;
+}
 
+/// The rays: replayed from --replay, else generated per kind (through the reference).
+std::vector<renderer::RaySet> make_sets(const Options& o, const std::vector<renderer::RayKind>& kinds,
+                                        const scenes::Scene& scene, const accel::Accelerator& ref) {
+    if (!o.replay_path.empty()) return read_replay(o.replay_path);
     std::vector<renderer::RaySet> sets;
-    if (!replay_path.empty()) {
-        sets = read_replay(replay_path);
-    } else {
-        renderer::RaySetOptions ro;
-        ro.seed = seed;
-        ro.count = rays;
-        for (renderer::RayKind k : kinds) {
-            std::fprintf(stderr, "[xcheck] generating %zu %s rays\n", rays, renderer::ray_kind_name(k));
-            sets.push_back(renderer::make_ray_set(k, scene, *ref_accel, ro));
-        }
+    renderer::RaySetOptions ro;
+    ro.seed = o.seed;
+    ro.count = o.rays;
+    for (renderer::RayKind k : kinds) {
+        std::fprintf(stderr, "[xcheck] generating %zu %s rays\n", o.rays, renderer::ray_kind_name(k));
+        sets.push_back(renderer::make_ray_set(k, scene, ref, ro));
     }
+    return sets;
+}
 
-    std::printf("scene %s: %llu triangles, %zu spheres; reference %s (%s)\n", scene_path.c_str(),
-                (unsigned long long)tris, scene.spheres.size(), ref.label.c_str(),
-                ref_accel->info().backend.c_str());
+/// The table: one row per (ray kind, backend). Returns the real disagreements' count and
+/// collects every disagreement in `bad`.
+uint64_t compare_all(const Backends& b, const Built& built, const std::vector<renderer::RaySet>& sets,
+                     const renderer::SceneGeometry& geometry, std::vector<renderer::Disagreement>& bad) {
     std::printf("%-12s %-26s %9s %10s %10s %11s %7s %9s %6s %9s\n", "kind", "backend", "rays", "hit-agree",
                 "prim-agree", "max|dt|/t", "ties", "numerical", "real", "tests/ray");
-    std::vector<renderer::Disagreement> bad;
     uint64_t total_real = 0, total_rays = 0;
     for (const auto& set : sets) {
-        for (size_t i = 0; i < accels.size(); ++i) {
+        for (size_t i = 0; i < built.others.size(); ++i) {
+            const accel::Accelerator& other = *built.others[i];
             std::fprintf(stderr, "[xcheck] %s rays through %s\n", renderer::ray_kind_name(set.kind),
-                         specs[i].label.c_str());
-            renderer::KindReport r = renderer::compare_backends(*ref_accel, ref.label, *accels[i],
-                                                                specs[i].label, set, geometry, &bad);
+                         b.specs[i].label.c_str());
+            renderer::KindReport r = renderer::compare_backends(*built.ref, b.ref.label, other,
+                                                                b.specs[i].label, set, geometry, &bad);
             total_real += r.real;
             total_rays += r.rays;
-            std::string tpr = accels[i]->info().counts_prims ? fmt::format("{:.2f}", r.stats.tests_per_ray()) : "-";
+            std::string tpr = other.info().counts_prims ? fmt::format("{:.2f}", r.stats.tests_per_ray()) : "-";
             std::printf("%-12s %-26s %9llu %9.5f%% %9.5f%% %11.3g %7llu %9llu %6llu %9s\n",
-                        renderer::ray_kind_name(set.kind), specs[i].label.c_str(), (unsigned long long)r.rays,
+                        renderer::ray_kind_name(set.kind), b.specs[i].label.c_str(), (unsigned long long)r.rays,
                         r.rays ? 100.0 * double(r.hit_agree) / double(r.rays) : 100.0,
                         r.rays ? 100.0 * double(r.prim_agree) / double(r.rays) : 100.0, r.max_rel_dt,
                         (unsigned long long)r.ties, (unsigned long long)r.numerical,
@@ -190,38 +208,69 @@ int main(int argc, char** argv) {
     }
     std::printf("total: %llu ray comparisons, %llu real disagreements\n", (unsigned long long)total_rays,
                 (unsigned long long)total_real);
+    return total_real;
+}
 
-    if (!replay_path.empty()) {
-        // Show every replayed ray's outcome per backend.
-        for (const auto& set : sets)
-            for (const auto& ray : set.rays) {
-                std::printf("%s\n", ray_line(set.kind, ray).c_str());
-                renderer::RaySet one;
-                one.kind = set.kind;
-                one.rays = {ray};
-                accel::TraceStats st;
-                auto a = renderer::trace_set(*ref_accel, one, st, true);
-                std::printf("  %-26s %s\n", ref.label.c_str(), outcome_text(a[0]).c_str());
-                for (size_t i = 0; i < accels.size(); ++i) {
-                    auto b = renderer::trace_set(*accels[i], one, st, true);
-                    std::printf("  %-26s %s\n", specs[i].label.c_str(), outcome_text(b[0]).c_str());
-                }
+/// --replay: every replayed ray's outcome per backend.
+void print_replayed(const Backends& b, const Built& built, const std::vector<renderer::RaySet>& sets) {
+    for (const auto& set : sets)
+        for (const auto& ray : set.rays) {
+            std::printf("%s\n", ray_line(set.kind, ray).c_str());
+            renderer::RaySet one;
+            one.kind = set.kind;
+            one.rays = {ray};
+            accel::TraceStats st;
+            auto a = renderer::trace_set(*built.ref, one, st, true);
+            std::printf("  %-26s %s\n", b.ref.label.c_str(), outcome_text(a[0]).c_str());
+            for (size_t i = 0; i < built.others.size(); ++i) {
+                auto o = renderer::trace_set(*built.others[i], one, st, true);
+                std::printf("  %-26s %s\n", b.specs[i].label.c_str(), outcome_text(o[0]).c_str());
             }
-    }
-    if (!dump_path.empty()) {
-        const std::string tmp = dump_path + ".tmp";
-        {
-            std::ofstream out(tmp);
-            if (!out) fail(dump_path + ": cannot be written");
-            out << "# xcheck disagreements on " << scene_path << "; reference " << ref.label << "\n";
-            for (const auto& d : bad)
-                out << "# " << d.backend << " " << renderer::verdict_name(d.verdict) << ": ref "
-                    << outcome_text(d.ref) << " / other " << outcome_text(d.other) << "\n"
-                    << ray_line(d.kind, d.ray) << "\n";
-            if (!out) fail(dump_path + ": write failed");
         }
-        if (std::rename(tmp.c_str(), dump_path.c_str()) != 0) fail(dump_path + ": cannot rename into place");
-        std::printf("wrote %zu disagreeing rays to %s\n", bad.size(), dump_path.c_str());
+}
+
+/// --dump: the disagreeing rays, each after a comment line saying how it disagreed.
+void write_dump(const std::string& dump_path, const std::string& scene_path, const std::string& ref_label,
+                const std::vector<renderer::Disagreement>& bad) {
+    const std::string tmp = dump_path + ".tmp";
+    {
+        std::ofstream out(tmp);
+        if (!out) fail(dump_path + ": cannot be written");
+        out << "# xcheck disagreements on " << scene_path << "; reference " << ref_label << "\n";
+        for (const auto& d : bad)
+            out << "# " << d.backend << " " << renderer::verdict_name(d.verdict) << ": ref "
+                << outcome_text(d.ref) << " / other " << outcome_text(d.other) << "\n"
+                << ray_line(d.kind, d.ray) << "\n";
+        if (!out) fail(dump_path + ": write failed");
     }
+    if (std::rename(tmp.c_str(), dump_path.c_str()) != 0) fail(dump_path + ": cannot rename into place");
+    std::printf("wrote %zu disagreeing rays to %s\n", bad.size(), dump_path.c_str());
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+    CLI::App app{"Cross-check backends ray by ray: camera, random, edge/vertex, grazing, shadow and "
+                 "diffuse-bounce rays, each disagreement classified (tie, numerical, real)."};
+    Options o;
+    add_options(app, o);
+    tools::parse_or_exit(app, argc, argv, "xcheck");
+    const scenes::Scene scene = tools::load_scene_or_exit(o.scene_path, "xcheck");
+    const uint64_t tris = scene.num_triangles();
+    if (tris == 0 && scene.spheres.empty()) fail(o.scene_path + ": the scene has no geometry");
+    const Backends b = choose_backends(o, tris <= 10000);
+    const std::vector<renderer::RayKind> kinds = parse_kinds(o.kinds_arg);  // before the builds: fail fast
+
+    const renderer::SceneGeometry geometry(scene);
+    const Built built = build_all(b, geometry);
+    const std::vector<renderer::RaySet> sets = make_sets(o, kinds, scene, *built.ref);
+
+    std::printf("scene %s: %llu triangles, %zu spheres; reference %s (%s)\n", o.scene_path.c_str(),
+                (unsigned long long)tris, scene.spheres.size(), b.ref.label.c_str(),
+                built.ref->info().backend.c_str());
+    std::vector<renderer::Disagreement> bad;
+    const uint64_t total_real = compare_all(b, built, sets, geometry, bad);
+    if (!o.replay_path.empty()) print_replayed(b, built, sets);
+    if (!o.dump_path.empty()) write_dump(o.dump_path, o.scene_path, b.ref.label, bad);
     return total_real > 0 ? 1 : 0;
 }
