@@ -1,4 +1,4 @@
-// Numerical-stability stress kernel (issue 8), shared by the `extremes` sweep
+// Numerical-stability stress kernel, shared by the `extremes` sweep
 // (benchmarks/extremes.cpp) and its fast version in tests/stability/. Header-only so the
 // test and the tool run the very same measurements.
 //

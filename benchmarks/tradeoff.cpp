@@ -84,6 +84,7 @@ struct World {
     std::unique_ptr<renderer::SceneGeometry> geometry;
     std::unique_ptr<renderer::LightSet> lights;
     std::vector<std::string> notes;
+    renderer::LightModel model{};
     renderer::Camera camera;
     std::map<std::string, std::unique_ptr<accel::Accelerator>> accels;
     std::map<std::string, double> build_ms;
@@ -225,267 +226,332 @@ Errors errors(const renderer::Image& img, const Reference& ref) {
     return {rel(se[0], sr[0]), rel(se[1], sr[1]), rel(se[0] - sv[0], sr[0]), rel(se[1] - sv[1], sr[1])};
 }
 
-}  // namespace
-
-int main(int argc, char** argv) {
-    CLI::App app{"Speed-accuracy study: error against a high-sample reference versus wall time, per knob."};
-    const std::string shared = std::string(PT_SOURCE_DIR_BENCH) + "/../shared/scenes/cs184/";
+/// Every option, as CLI11 fills it.
+struct Options {
     std::vector<std::string> scene_paths;
     std::string csv_path, ref_dir = std::string(PT_SOURCE_DIR_BENCH) + "/benchmarks/results/reference";
     std::string studies_arg = "spp,sampling,light_samples,adaptive,rr,max_depth,backend,triangle_test";
     int width = 160, height = 120, ref_spp = 4096, threads = 0, repeats = 1;
     bool quick = false;
-    app.add_option("--scene", scene_paths, "Scene (repeatable; default: the shared CBspheres_lambertian and CBbunny)");
-    app.add_option("--csv", csv_path, "Write the rows as CSV");
-    app.add_option("--ref-dir", ref_dir, "Where references are cached (default benchmarks/results/reference)");
-    app.add_option("--studies", studies_arg, "Comma-separated studies to run (default all)");
-    app.add_option("--width", width, "Image width (default 160; the course's 480x360 field of view is kept)");
-    app.add_option("--height", height, "Image height (default 120)");
-    app.add_option("--ref-spp", ref_spp, "Reference samples per pixel (default 4096)");
-    app.add_option("--threads", threads, "Render threads (default 0 = all cores)");
-    app.add_option("--repeats", repeats, "Renders per configuration; the median time is kept (default 1)");
-    app.add_flag("--quick", quick, "Smoke run: the default scene at 32x24, reference 64 spp (not cached), few points");
-    tools::parse_or_exit(app, argc, argv, "tradeoff");
-    const dist::World mpi = dist::init(argc, argv, "tradeoff");
-    if (quick) {
-        width = 32;
-        height = 24;
-        ref_spp = 64;
-        if (scene_paths.empty()) scene_paths.push_back(std::string(PT_SOURCE_DIR_BENCH) + "/scenes/cornell.dae");
-    }
-    if (scene_paths.empty())
-        for (const char* f : {"CBspheres_lambertian.dae", "CBbunny.dae"}) scene_paths.push_back(shared + f);
-    if (width < 4 || height < 3 || ref_spp < 4) fail("image or reference too small");
-    std::vector<std::string> studies;
-    {
-        std::stringstream ss(studies_arg);
-        for (std::string s; std::getline(ss, s, ',');) studies.push_back(s);
-    }
-    auto wants = [&](const char* s) { return std::find(studies.begin(), studies.end(), s) != studies.end(); };
-    const auto available = accel::available_backends();
-    const bool have_embree = std::find(available.begin(), available.end(), "embree") != available.end();
+    std::vector<std::string> studies;  ///< --studies, split
+    bool wants(const char* s) const { return std::find(studies.begin(), studies.end(), s) != studies.end(); }
+};
 
-    // The study's baseline, which is also how the reference is rendered: light sampling,
-    // one sample per light, depth 100 (Russian roulette ends paths long before), rr 0.65.
-    // Depth 100 makes the reference the converged global illumination, so the max-depth
-    // study can show the bias of truncating paths.
+void add_options(CLI::App& app, Options& o) {
+    app.add_option("--scene", o.scene_paths, "Scene (repeatable; default: the shared CBspheres_lambertian and CBbunny)");
+    app.add_option("--csv", o.csv_path, "Write the rows as CSV");
+    app.add_option("--ref-dir", o.ref_dir, "Where references are cached (default benchmarks/results/reference)");
+    app.add_option("--studies", o.studies_arg, "Comma-separated studies to run (default all)");
+    app.add_option("--width", o.width, "Image width (default 160; the course's 480x360 field of view is kept)");
+    app.add_option("--height", o.height, "Image height (default 120)");
+    app.add_option("--ref-spp", o.ref_spp, "Reference samples per pixel (default 4096)");
+    app.add_option("--threads", o.threads, "Render threads (default 0 = all cores)");
+    app.add_option("--repeats", o.repeats, "Renders per configuration; the median time is kept (default 1)");
+    app.add_flag("--quick", o.quick, "Smoke run: the default scene at 32x24, reference 64 spp (not cached), few points");
+}
+
+/// --quick's sizes, the default scenes, and the studies' list.
+void finish_options(Options& o) {
+    const std::string shared = std::string(PT_SOURCE_DIR_BENCH) + "/../shared/scenes/cs184/";
+    if (o.quick) {
+        o.width = 32;
+        o.height = 24;
+        o.ref_spp = 64;
+        if (o.scene_paths.empty()) o.scene_paths.push_back(std::string(PT_SOURCE_DIR_BENCH) + "/scenes/cornell.dae");
+    }
+    if (o.scene_paths.empty())
+        for (const char* f : {"CBspheres_lambertian.dae", "CBbunny.dae"}) o.scene_paths.push_back(shared + f);
+    if (o.width < 4 || o.height < 3 || o.ref_spp < 4) fail("image or reference too small");
+    std::stringstream ss(o.studies_arg);
+    for (std::string s; std::getline(ss, s, ',');) o.studies.push_back(s);
+}
+
+/// The study's baseline, which is also how the reference is rendered: light sampling,
+/// one sample per light, depth 100 (Russian roulette ends paths long before), rr 0.65.
+/// Depth 100 makes the reference the converged global illumination, so the max-depth
+/// study can show the bias of truncating paths.
+IntegratorSettings baseline() {
     IntegratorSettings base;
     base.name = "path";
     base.max_depth = 100;
     base.light_samples = 1;
     base.rr_continue = 0.65f;
+    return base;
+}
+
+/// Loads the scene into `w`, with its default light model and the course's framing.
+void setup_world(World& w, const std::string& path, const Options& o) {
+    try {
+        w.scene = scenes::load_scene(path);
+    } catch (const scenes::SceneError& e) {
+        fail(e.what());
+    }
+    w.geometry = std::make_unique<renderer::SceneGeometry>(w.scene);
+    // The light model a user gets by default (course for the CS184 files). Under mesh
+    // semantics the panel's upper side, 1 cm below the ceiling, is sampled by area and
+    // its 1/r^2 spikes on the ceiling dominate every error measured here (relative RMSE
+    // 0.6 at 1024 spp, measured): that would be a study of that one estimator's tail.
+    // The price: under course semantics -H converges to a slightly different image (the
+    // panel's upper side lights the ceiling under -H only), so the hemisphere rows carry
+    // that bias against the light-sampled reference.
+    w.model = renderer::parse_light_model("", w.scene.format);
+    w.lights = std::make_unique<renderer::LightSet>(w.scene, w.model, w.notes);
+    // The course's 480x360 framing, rendered at width x height (as the transport tests do).
+    renderer::CameraOverrides ov;
+    ov.hfov_deg = renderer::make_camera(w.scene, renderer::CameraMode::Auto, 480, 360).camera.hfov_deg();
+    w.camera = renderer::make_camera(w.scene, renderer::CameraMode::Auto, o.width, o.height, ov).camera;
+}
+
+/// Renders the reference with every rank's help; rank 0 caches it (unless --quick).
+void render_reference(World& w, Reference& ref, const std::string& name, const Options& o,
+                      const IntegratorSettings& base, const dist::World& mpi, const std::string& ref_path,
+                      const std::string& header) {
+    std::fprintf(stderr, "[tradeoff] %s: rendering the %d spp reference...\n", name.c_str(), o.ref_spp);
+    Config c;
+    c.is = base;
+    c.spp = o.ref_spp;
+    c.seed = 0x5eed0f7e5ULL;  // independent of every study render (they use small seeds)
+    const auto tiles = dist::make_tile_source(mpi);
+    const auto r = render(w, c, o.width, o.height, o.threads, tiles.get());
+    ref.seconds = r.seconds;
+    ref.y.resize(size_t(o.width) * o.height);
+    ref.var.resize(ref.y.size());
+    for (int y = 0; y < o.height; ++y)
+        for (int x = 0; x < o.width; ++x) {
+            ref.y[size_t(y) * o.width + x] = luminance(r.image.at(x, y));
+            ref.var[size_t(y) * o.width + x] = r.image.at(x, y)[renderer::kVariance];
+        }
+    if (!o.quick && mpi.root()) {
+        std::filesystem::create_directories(o.ref_dir);
+        save_ref(ref_path, header, ref);
+        try {
+            renderer::write_image(fmt::format("{}/{}_reference.png", o.ref_dir, name), r.image);
+        } catch (const std::exception& e) {
+            std::fprintf(stderr, "[tradeoff] %s\n", e.what());
+        }
+    }
+    std::fprintf(stderr, "[tradeoff] %s: reference took %.1f s\n", name.c_str(), r.seconds);
+}
+
+/// The reference of one scene, on every rank: cached, or rendered now; then its masks.
+Reference make_reference(World& w, const std::string& name, const Options& o, const IntegratorSettings& base,
+                         const dist::World& mpi) {
+    Reference ref;
+    ref.w = o.width;
+    ref.h = o.height;
+    ref.spp = o.ref_spp;
+    // The camera is part of the reference: a cached one made with another framing must
+    // be rendered again, not reused.
+    std::string header = ref_header(name, o.width, o.height, o.ref_spp, base, w.model);
+    header.insert(header.size() - 1, fmt::format(" hfov={:.3f}", w.camera.hfov_deg()));
+    const std::string ref_path = fmt::format("{}/{}_{}x{}_{}spp.ref", o.ref_dir, name, o.width, o.height, o.ref_spp);
+    // Rank 0 decides whether the cached reference is usable; if not, every rank renders
+    // tiles of it and rank 0 gathers; then every rank gets rank 0's copy.
+    std::string cached(1, (!o.quick && mpi.root() && load_ref(ref_path, header, ref)) ? '1' : '0');
+    dist::broadcast(mpi, cached);
+    if (cached[0] == '0') render_reference(w, ref, name, o, base, mpi, ref_path, header);
+    for (std::vector<float>* v : {&ref.y, &ref.var}) {
+        std::string bytes(reinterpret_cast<const char*>(v->data()), v->size() * sizeof(float));
+        dist::broadcast(mpi, bytes);
+        v->resize(bytes.size() / sizeof(float));
+        std::memcpy(v->data(), bytes.data(), bytes.size());
+    }
+    make_masks(w, ref, o.quick ? 8 : 64);
+    if (!o.quick && mpi.root()) {
+        std::vector<float> m(ref.shadow_mask.size());
+        for (size_t i = 0; i < m.size(); ++i) m[i] = ref.image_mask[i] ? (ref.shadow_mask[i] ? 1.0f : 0.3f) : 0.0f;
+        try {
+            renderer::write_image(fmt::format("{}/{}_shadow_mask.png", o.ref_dir, name),
+                                  renderer::heat_map(m, o.width, o.height, 0.0f, 1.0f),
+                                  {renderer::Encoding::Display, "", "", "", {}});
+        } catch (const std::exception& e) {
+            std::fprintf(stderr, "[tradeoff] %s\n", e.what());
+        }
+    }
+    return ref;
+}
+
+/// The reference's own noise, as the rel_rmse it would score against itself (image, shadow).
+struct NoiseFloor {
+    double image = 0, shadow = 0;
+};
+
+NoiseFloor noise_floor(const Reference& ref, const std::string& name, const dist::World& mpi) {
+    double rv[2] = {0, 0}, ry[2] = {0, 0};
+    size_t nshadow = 0;
+    for (size_t i = 0; i < ref.y.size(); ++i) {
+        if (!ref.image_mask[i]) continue;
+        rv[0] += ref.var[i];
+        ry[0] += double(ref.y[i]) * ref.y[i];
+        if (ref.shadow_mask[i]) {
+            rv[1] += ref.var[i];
+            ry[1] += double(ref.y[i]) * ref.y[i];
+            ++nshadow;
+        }
+    }
+    const NoiseFloor f{ry[0] > 0 ? std::sqrt(rv[0] / ry[0]) : 0, ry[1] > 0 ? std::sqrt(rv[1] / ry[1]) : 0};
+    if (mpi.root())
+        std::fprintf(stderr, "[tradeoff] %s: %zu shadow pixels of %zu; reference noise floor %.4f (shadow %.4f)\n",
+                     name.c_str(), nshadow, ref.y.size(), f.image, f.shadow);
+    return f;
+}
+
+/// The sampling studies' points (spp, sampling, light samples, adaptive, rr, max depth).
+/// Quick mode keeps one or two points per study.
+void add_sampling_configs(std::vector<Config>& configs, const Options& o, const IntegratorSettings& base) {
+    const bool quick = o.quick;
+    auto add = [&](Config c) { configs.push_back(std::move(c)); };
+    const std::vector<int> spps = quick ? std::vector<int>{1, 4} : std::vector<int>{1, 2, 4, 8, 16, 32, 64, 128, 256, 512, 1024};
+    if (o.wants("spp"))
+        for (int s : spps) add({"spp", "light sampling", double(s), base, s});
+    if (o.wants("sampling"))
+        for (int s : quick ? std::vector<int>{1, 4} : std::vector<int>{1, 4, 16, 64, 256, 1024}) {
+            Config c{"sampling", "hemisphere", double(s), base, s};
+            c.is.hemisphere = true;
+            add(c);
+        }
+    if (o.wants("light_samples"))
+        for (int l : quick ? std::vector<int>{1, 4} : std::vector<int>{1, 2, 4, 8, 16, 32, 64}) {
+            Config c{"light_samples", "spp 4 l=N", double(l), base, 4};
+            c.is.light_samples = l;
+            add(c);
+        }
+    if (o.wants("adaptive")) {
+        const int cap = quick ? 16 : 256;
+        for (float tol : quick ? std::vector<float>{0.2f} : std::vector<float>{0.5f, 0.2f, 0.1f, 0.05f, 0.025f}) {
+            const int batch = quick ? 4 : 16;
+            Config c{"adaptive", fmt::format("cap {} batch {}", cap, batch), double(tol), base, cap};
+            c.adaptive_batch = batch;
+            c.adaptive_tol = tol;
+            add(c);
+        }
+        // The non-adaptive render at the cap: what the tolerance trades against.
+        add({"adaptive", "fixed", 0.0, base, cap});
+    }
+    if (o.wants("rr"))
+        for (float rr : quick ? std::vector<float>{0.65f} : std::vector<float>{1.0f, 0.9f, 0.8f, 0.65f, 0.5f, 0.3f, 0.15f}) {
+            Config c{"rr", quick ? "spp 2" : "spp 16", double(rr), base, quick ? 2 : 16};
+            c.is.rr_continue = rr;
+            add(c);
+        }
+    if (o.wants("max_depth"))
+        for (int m : quick ? std::vector<int>{1, 5} : std::vector<int>{1, 2, 3, 4, 5, 8, 16, 100}) {
+            Config c{"max_depth", quick ? "spp 2" : "spp 64", double(m), base, quick ? 2 : 64};
+            c.is.max_depth = m;
+            add(c);
+        }
+}
+
+/// Every study's points: the sampling knobs, then the accelerators and triangle tests at
+/// equal samples.
+std::vector<Config> make_configs(const Options& o, const IntegratorSettings& base, bool have_embree) {
+    std::vector<Config> configs;
+    add_sampling_configs(configs, o, base);
+    const std::vector<int> eq_spps = o.quick ? std::vector<int>{2} : std::vector<int>{4, 16, 64};
+    if (o.wants("backend")) {
+        std::vector<std::string> bs = {"custom:midpoint", "custom:sah"};
+        if (have_embree) bs.push_back("embree:high");
+        for (const auto& b : bs)
+            for (int s : eq_spps) {
+                Config c{"backend", b, double(s), base, s};
+                c.backend = b;
+                configs.push_back(c);
+            }
+    }
+    if (o.wants("triangle_test"))
+        for (const char* b : {"custom:sah:fast", "custom:sah:watertight"})
+            for (int s : eq_spps) {
+                Config c{"triangle_test", b, double(s), base, s};
+                c.backend = b;
+                configs.push_back(c);
+            }
+    return configs;
+}
+
+/// Renders this rank's points (point i on rank i mod N), each as "text line\ncsv line";
+/// a single process prints each text line as it goes.
+std::vector<std::string> run_configs(World& w, std::vector<Config>& configs, const Reference& ref,
+                                     const NoiseFloor& floor, const std::string& name, const Options& o,
+                                     const dist::World& mpi) {
+    std::vector<std::string> rows;
+    for (Config& c : configs) {
+        // Every configuration gets its own seed, independent of the reference's.
+        c.seed = 1 + uint64_t(&c - configs.data());
+        if ((&c - configs.data()) % mpi.size != mpi.rank) continue;
+        std::vector<double> times;
+        renderer::RenderResult r;
+        for (int k = 0; k < std::max(1, o.repeats); ++k) {
+            r = render(w, c, o.width, o.height, o.threads);
+            times.push_back(r.seconds);
+        }
+        std::sort(times.begin(), times.end());
+        const double secs = times[times.size() / 2];
+        const Errors e = errors(r.image, ref);
+        std::string row = fmt::format("{:<22} {:<13} {:<22} {:>7} {:>6} {:>9.3f} {:>10} {:>9.5f} {:>9.5f} {:>9.5f}\n",
+                                      name, c.study, c.label, fmt::format("{:g}", c.param), c.spp, secs,
+                                      r.samples, e.image, e.shadow, e.image_db);
+        if (mpi.size == 1) {
+            std::fputs(row.c_str(), stdout);
+            std::fflush(stdout);
+        }
+        row += fmt::format("{},{},{},{},{},{},{},{:.3f},{},{},{},{:.5f},{},{:.6f},{:.6f},{:.6f},{:.6f},{:.6f},{:.6f},{:.2f}\n",
+                           name, c.study, c.label, c.param, c.spp, c.is.light_samples, c.is.max_depth,
+                           c.is.rr_continue, c.is.hemisphere ? 1 : 0, c.backend, c.adaptive_tol, secs,
+                           r.samples, e.image, e.shadow, e.image_db, e.shadow_db, floor.image, floor.shadow,
+                           w.build_ms[c.backend]);
+        rows.push_back(std::move(row));
+    }
+    return rows;
+}
+
+/// One scene: its reference, every study's points, and their rows (gathered on rank 0,
+/// which prints them under mpirun and appends them to the CSV).
+void run_scene(const std::string& path, const Options& o, const IntegratorSettings& base, bool have_embree,
+               const dist::World& mpi, std::ofstream& csv) {
+    World w;
+    setup_world(w, path, o);
+    const std::string name = std::filesystem::path(path).stem().string();
+    const Reference ref = make_reference(w, name, o, base, mpi);
+    const NoiseFloor floor = noise_floor(ref, name, mpi);
+    std::vector<Config> configs = make_configs(o, base, have_embree);
+    const std::vector<std::string> rows = run_configs(w, configs, ref, floor, name, o, mpi);
+    for (const std::string& row : dist::gather(mpi, rows, configs.size())) {
+        const size_t nl = row.find('\n');
+        if (mpi.size > 1) std::fputs(row.substr(0, nl + 1).c_str(), stdout);
+        if (csv.is_open()) csv << row.substr(nl + 1);
+    }
+    std::fflush(stdout);
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+    CLI::App app{"Speed-accuracy study: error against a high-sample reference versus wall time, per knob."};
+    Options o;
+    add_options(app, o);
+    tools::parse_or_exit(app, argc, argv, "tradeoff");
+    const dist::World mpi = dist::init(argc, argv, "tradeoff");
+    finish_options(o);
+    const auto available = accel::available_backends();
+    const bool have_embree = std::find(available.begin(), available.end(), "embree") != available.end();
+    const IntegratorSettings base = baseline();
 
     std::ofstream csv;
-    if (!csv_path.empty() && mpi.root()) {
-        csv.open(csv_path + ".tmp");
+    if (!o.csv_path.empty() && mpi.root()) {
+        csv.open(o.csv_path + ".tmp");
         csv << "scene,study,label,param,spp,light_samples,max_depth,rr,hemisphere,backend,adaptive_tol,seconds,"
                "samples,rel_rmse,rel_rmse_shadow,rel_rmse_debiased,rel_rmse_shadow_debiased,ref_floor,"
                "ref_floor_shadow,build_ms\n";
     }
     if (mpi.root())
         std::printf("%-22s %-13s %-22s %7s %6s %9s %10s %9s %9s %9s\n", "scene", "study", "label", "param", "spp",
-                "seconds", "samples", "rel_rmse", "shadow", "debiased");
-
-    for (const std::string& path : scene_paths) {
-        World w;
-        try {
-            w.scene = scenes::load_scene(path);
-        } catch (const scenes::SceneError& e) {
-            fail(e.what());
-        }
-        const std::string name = std::filesystem::path(path).stem().string();
-        w.geometry = std::make_unique<renderer::SceneGeometry>(w.scene);
-        // The light model a user gets by default (course for the CS184 files). Under mesh
-        // semantics the panel's upper side, 1 cm below the ceiling, is sampled by area and
-        // its 1/r^2 spikes on the ceiling dominate every error measured here (relative RMSE
-        // 0.6 at 1024 spp, measured): that would be a study of that one estimator's tail.
-        // The price: under course semantics -H converges to a slightly different image (the
-        // panel's upper side lights the ceiling under -H only), so the hemisphere rows carry
-        // that bias against the light-sampled reference.
-        const renderer::LightModel model = renderer::parse_light_model("", w.scene.format);
-        w.lights = std::make_unique<renderer::LightSet>(w.scene, model, w.notes);
-        // The course's 480x360 framing, rendered at width x height (as the transport tests do).
-        renderer::CameraOverrides ov;
-        ov.hfov_deg = renderer::make_camera(w.scene, renderer::CameraMode::Auto, 480, 360).camera.hfov_deg();
-        w.camera = renderer::make_camera(w.scene, renderer::CameraMode::Auto, width, height, ov).camera;
-
-        Reference ref;
-        ref.w = width;
-        ref.h = height;
-        ref.spp = ref_spp;
-        // The camera is part of the reference: a cached one made with another framing
-        // (before issue 12's course-framing fix) must be rendered again, not reused.
-        std::string header = ref_header(name, width, height, ref_spp, base, model);
-        header.insert(header.size() - 1, fmt::format(" hfov={:.3f}", w.camera.hfov_deg()));
-        const std::string ref_path = fmt::format("{}/{}_{}x{}_{}spp.ref", ref_dir, name, width, height, ref_spp);
-        // Rank 0 decides whether the cached reference is usable; if not, every rank renders
-        // tiles of it and rank 0 gathers; then every rank gets rank 0's copy.
-        std::string cached(1, (!quick && mpi.root() && load_ref(ref_path, header, ref)) ? '1' : '0');
-        dist::broadcast(mpi, cached);
-        if (cached[0] == '0') {
-            std::fprintf(stderr, "[tradeoff] %s: rendering the %d spp reference...\n", name.c_str(), ref_spp);
-            Config c;
-            c.is = base;
-            c.spp = ref_spp;
-            c.seed = 0x5eed0f7e5ULL;  // independent of every study render (they use small seeds)
-            const auto tiles = dist::make_tile_source(mpi);
-            const auto r = render(w, c, width, height, threads, tiles.get());
-            ref.seconds = r.seconds;
-            ref.y.resize(size_t(width) * height);
-            ref.var.resize(ref.y.size());
-            for (int y = 0; y < height; ++y)
-                for (int x = 0; x < width; ++x) {
-                    ref.y[size_t(y) * width + x] = luminance(r.image.at(x, y));
-                    ref.var[size_t(y) * width + x] = r.image.at(x, y)[renderer::kVariance];
-                }
-            if (!quick && mpi.root()) {
-                std::filesystem::create_directories(ref_dir);
-                save_ref(ref_path, header, ref);
-                try {
-                    renderer::write_image(fmt::format("{}/{}_reference.png", ref_dir, name), r.image);
-                } catch (const std::exception& e) {
-                    std::fprintf(stderr, "[tradeoff] %s\n", e.what());
-                }
-            }
-            std::fprintf(stderr, "[tradeoff] %s: reference took %.1f s\n", name.c_str(), r.seconds);
-        }
-        for (std::vector<float>* v : {&ref.y, &ref.var}) {
-            std::string bytes(reinterpret_cast<const char*>(v->data()), v->size() * sizeof(float));
-            dist::broadcast(mpi, bytes);
-            v->resize(bytes.size() / sizeof(float));
-            std::memcpy(v->data(), bytes.data(), bytes.size());
-        }
-        make_masks(w, ref, quick ? 8 : 64);
-        if (!quick && mpi.root()) {
-            std::vector<float> m(ref.shadow_mask.size());
-            for (size_t i = 0; i < m.size(); ++i) m[i] = ref.image_mask[i] ? (ref.shadow_mask[i] ? 1.0f : 0.3f) : 0.0f;
-            try {
-                renderer::write_image(fmt::format("{}/{}_shadow_mask.png", ref_dir, name),
-                                      renderer::heat_map(m, width, height, 0.0f, 1.0f),
-                                      {renderer::Encoding::Display, "", "", "", {}});
-            } catch (const std::exception& e) {
-                std::fprintf(stderr, "[tradeoff] %s\n", e.what());
-            }
-        }
-        // The reference's own noise, as the rel_rmse it would score against itself.
-        double rv[2] = {0, 0}, ry[2] = {0, 0};
-        size_t nshadow = 0;
-        for (size_t i = 0; i < ref.y.size(); ++i) {
-            if (!ref.image_mask[i]) continue;
-            rv[0] += ref.var[i];
-            ry[0] += double(ref.y[i]) * ref.y[i];
-            if (ref.shadow_mask[i]) {
-                rv[1] += ref.var[i];
-                ry[1] += double(ref.y[i]) * ref.y[i];
-                ++nshadow;
-            }
-        }
-        const double floor_img = ry[0] > 0 ? std::sqrt(rv[0] / ry[0]) : 0, floor_sh = ry[1] > 0 ? std::sqrt(rv[1] / ry[1]) : 0;
-        if (mpi.root())
-            std::fprintf(stderr, "[tradeoff] %s: %zu shadow pixels of %zu; reference noise floor %.4f (shadow %.4f)\n",
-                     name.c_str(), nshadow, ref.y.size(), floor_img, floor_sh);
-
-        // The configurations. Quick mode keeps one or two points per study.
-        std::vector<Config> configs;
-        auto add = [&](Config c) { configs.push_back(std::move(c)); };
-        const std::vector<int> spps = quick ? std::vector<int>{1, 4} : std::vector<int>{1, 2, 4, 8, 16, 32, 64, 128, 256, 512, 1024};
-        if (wants("spp"))
-            for (int s : spps) add({"spp", "light sampling", double(s), base, s});
-        if (wants("sampling"))
-            for (int s : quick ? std::vector<int>{1, 4} : std::vector<int>{1, 4, 16, 64, 256, 1024}) {
-                Config c{"sampling", "hemisphere", double(s), base, s};
-                c.is.hemisphere = true;
-                add(c);
-            }
-        if (wants("light_samples"))
-            for (int l : quick ? std::vector<int>{1, 4} : std::vector<int>{1, 2, 4, 8, 16, 32, 64}) {
-                Config c{"light_samples", "spp 4 l=N", double(l), base, 4};
-                c.is.light_samples = l;
-                add(c);
-            }
-        if (wants("adaptive")) {
-            const int cap = quick ? 16 : 256;
-            for (float tol : quick ? std::vector<float>{0.2f} : std::vector<float>{0.5f, 0.2f, 0.1f, 0.05f, 0.025f}) {
-                const int batch = quick ? 4 : 16;
-                Config c{"adaptive", fmt::format("cap {} batch {}", cap, batch), double(tol), base, cap};
-                c.adaptive_batch = batch;
-                c.adaptive_tol = tol;
-                add(c);
-            }
-            // The non-adaptive render at the cap: what the tolerance trades against.
-            add({"adaptive", "fixed", 0.0, base, cap});
-        }
-        if (wants("rr"))
-            for (float rr : quick ? std::vector<float>{0.65f} : std::vector<float>{1.0f, 0.9f, 0.8f, 0.65f, 0.5f, 0.3f, 0.15f}) {
-                Config c{"rr", quick ? "spp 2" : "spp 16", double(rr), base, quick ? 2 : 16};
-                c.is.rr_continue = rr;
-                add(c);
-            }
-        if (wants("max_depth"))
-            for (int m : quick ? std::vector<int>{1, 5} : std::vector<int>{1, 2, 3, 4, 5, 8, 16, 100}) {
-                Config c{"max_depth", quick ? "spp 2" : "spp 64", double(m), base, quick ? 2 : 64};
-                c.is.max_depth = m;
-                add(c);
-            }
-        const std::vector<int> eq_spps = quick ? std::vector<int>{2} : std::vector<int>{4, 16, 64};
-        if (wants("backend")) {
-            std::vector<std::string> bs = {"custom:midpoint", "custom:sah"};
-            if (have_embree) bs.push_back("embree:high");
-            for (const auto& b : bs)
-                for (int s : eq_spps) {
-                    Config c{"backend", b, double(s), base, s};
-                    c.backend = b;
-                    add(c);
-                }
-        }
-        if (wants("triangle_test"))
-            for (const char* b : {"custom:sah:fast", "custom:sah:watertight"})
-                for (int s : eq_spps) {
-                    Config c{"triangle_test", b, double(s), base, s};
-                    c.backend = b;
-                    add(c);
-                }
-
-        std::vector<std::string> rows;  // "text line\ncsv line", for this rank's points
-        for (Config& c : configs) {
-            // Every configuration gets its own seed, independent of the reference's.
-            c.seed = 1 + uint64_t(&c - configs.data());
-            if ((&c - configs.data()) % mpi.size != mpi.rank) continue;
-            std::vector<double> times;
-            renderer::RenderResult r;
-            for (int k = 0; k < std::max(1, repeats); ++k) {
-                r = render(w, c, width, height, threads);
-                times.push_back(r.seconds);
-            }
-            std::sort(times.begin(), times.end());
-            const double secs = times[times.size() / 2];
-            const Errors e = errors(r.image, ref);
-            std::string row = fmt::format("{:<22} {:<13} {:<22} {:>7} {:>6} {:>9.3f} {:>10} {:>9.5f} {:>9.5f} {:>9.5f}\n",
-                                          name, c.study, c.label, fmt::format("{:g}", c.param), c.spp, secs,
-                                          r.samples, e.image, e.shadow, e.image_db);
-            if (mpi.size == 1) {  // a single process prints as it goes
-                std::fputs(row.c_str(), stdout);
-                std::fflush(stdout);
-            }
-            row += fmt::format("{},{},{},{},{},{},{},{:.3f},{},{},{},{:.5f},{},{:.6f},{:.6f},{:.6f},{:.6f},{:.6f},{:.6f},{:.2f}\n",
-                                   name, c.study, c.label, c.param, c.spp, c.is.light_samples, c.is.max_depth,
-                                   c.is.rr_continue, c.is.hemisphere ? 1 : 0, c.backend, c.adaptive_tol, secs,
-                                   r.samples, e.image, e.shadow, e.image_db, e.shadow_db, floor_img, floor_sh,
-                                   w.build_ms[c.backend]);
-            rows.push_back(std::move(row));
-        }
-        for (const std::string& row : dist::gather(mpi, rows, configs.size())) {
-            const size_t nl = row.find('\n');
-            if (mpi.size > 1) std::fputs(row.substr(0, nl + 1).c_str(), stdout);
-            if (csv.is_open()) csv << row.substr(nl + 1);
-        }
-        std::fflush(stdout);
-    }
+                    "seconds", "samples", "rel_rmse", "shadow", "debiased");
+    for (const std::string& path : o.scene_paths) run_scene(path, o, base, have_embree, mpi, csv);
     if (csv.is_open()) {
         csv.close();
-        if (!csv) fail(csv_path + ": write failed");
-        std::filesystem::rename(csv_path + ".tmp", csv_path);
-        std::printf("wrote %s\n", csv_path.c_str());
+        if (!csv) fail(o.csv_path + ": write failed");
+        std::filesystem::rename(o.csv_path + ".tmp", o.csv_path);
+        std::printf("wrote %s\n", o.csv_path.c_str());
     }
     dist::finalize();
     return 0;
