@@ -116,20 +116,16 @@ public:
     /// Whether the backend traces many rays faster together than one by one (a plugin's
     /// batched entry points). Tools that trace whole ray sets (xcheck, accel_bench) then
     /// hand it chunks through the two calls below; everyone else traces ray by ray.
-    virtual bool has_batches() const { return false; }
+    /// False here. Out of line, as the two below (accel/accelerator.cpp): an inline virtual
+    /// would be emitted as a weak symbol into every per-ISA kernel object
+    /// (tests/bvh/kernel_symbols.cmake).
+    virtual bool has_batches() const;
 
     /// intersect for each ray: hits[i] as intersect leaves it, a default Hit on a miss.
-    virtual void intersect_batch(std::span<const Ray> rays, Hit* hits, TraceStats& stats) const {
-        for (size_t i = 0; i < rays.size(); ++i) {
-            hits[i] = Hit{};
-            intersect(rays[i], hits[i], stats);
-        }
-    }
+    virtual void intersect_batch(std::span<const Ray> rays, Hit* hits, TraceStats& stats) const;
 
     /// occluded for each ray: occluded[i] = 1 or 0.
-    virtual void occluded_batch(std::span<const Ray> rays, uint8_t* occluded, TraceStats& stats) const {
-        for (size_t i = 0; i < rays.size(); ++i) occluded[i] = this->occluded(rays[i], stats) ? 1 : 0;
-    }
+    virtual void occluded_batch(std::span<const Ray> rays, uint8_t* occluded, TraceStats& stats) const;
 
     virtual const BuildInfo& info() const = 0;
 
