@@ -18,7 +18,8 @@
  *     units of |dir|. t_max may be +infinity. dir components may be 0 (or -0).
  *   - Closest hit: the hit with the smallest t in [t_min, t_max], inclusive at both ends.
  *     Triangles report barycentrics (u, v): the point is (1-u-v)*v0 + u*v1 + v*v2.
- *     Spheres report u = v = 0. The host computes the geometric normal itself.
+ *     Spheres report u = v = 0. The host computes the geometric normal itself unless
+ *     the plugin reports it (ACCEL_PLUGIN_REPORTS_NORMALS).
  *   - Both faces of a triangle are hit (no culling); degenerate triangles (zero area,
  *     non-finite vertices) and spheres of radius <= 0 are never hit.
  *   - Watertightness: the host expects hits on a shared edge not to leak through; a
@@ -110,6 +111,11 @@ typedef struct AccelPluginHit {
     float u, v;
     uint32_t geom_id;  /* index into the geometry array given to build */
     uint32_t prim_id;  /* triangle or sphere index inside that geometry */
+    /* Only read with ACCEL_PLUGIN_REPORTS_NORMALS: the unnormalised geometric normal,
+     * cross(v1 - v0, v2 - v0) for triangles (it follows the winding), hit point minus
+     * centre for spheres. Without that bit the host computes it from the geometry, which
+     * costs a few loads per hit that may miss the cache. */
+    float ng[3];
 } AccelPluginHit;
 
 /* Per-thread counters. The host passes NULL when it is not counting (timed benchmark
@@ -131,13 +137,17 @@ typedef struct AccelPluginRaysSoA {
     const float* t_max;
 } AccelPluginRaysSoA;
 
-/* Batched closest hits; on a miss `geom_id[i]` is 0xFFFFFFFF and the rest is unspecified. */
+/* Batched closest hits; on a miss `geom_id[i]` is 0xFFFFFFFF and the rest is unspecified.
+ * ng_x, ng_y, ng_z as AccelPluginHit's ng (written only with ACCEL_PLUGIN_REPORTS_NORMALS). */
 typedef struct AccelPluginHitsSoA {
     float* t;
     float* u;
     float* v;
     uint32_t* geom_id;
     uint32_t* prim_id;
+    float* ng_x;
+    float* ng_y;
+    float* ng_z;
 } AccelPluginHitsSoA;
 
 /* ---- Build -------------------------------------------------------------------------- */
@@ -158,13 +168,14 @@ typedef struct AccelPluginBuildInfo {
 /* Capability bits. */
 #define ACCEL_PLUGIN_COUNTS_NODES (1u << 0)  /* intersect/occluded add to nodes_visited */
 #define ACCEL_PLUGIN_COUNTS_PRIMS (1u << 1)  /* ... and to prim_tests */
+#define ACCEL_PLUGIN_REPORTS_NORMALS (1u << 2) /* hits carry their geometric normal (ng) */
 
 typedef struct AccelPluginApi {
     uint32_t abi_version;  /* ACCEL_PLUGIN_ABI_VERSION */
     uint32_t struct_size;  /* sizeof(AccelPluginApi) as the plugin was compiled */
     const char* name;      /* short, printable, e.g. "example-bvh2" */
     const char* version;   /* the plugin's own version, e.g. "1.0" */
-    uint32_t capabilities; /* ACCEL_PLUGIN_COUNTS_* */
+    uint32_t capabilities; /* ACCEL_PLUGIN_COUNTS_*, ACCEL_PLUGIN_REPORTS_NORMALS */
     uint32_t reserved;
 
     /* Builds a structure over geometry[0 .. num_geometry). `options` is the text after

@@ -20,11 +20,28 @@
 namespace accel {
 namespace {
 
-// The host's ray is the ABI's ray: one copy of 32 bytes, no conversion per field.
+// The ABI's ray and hit have the host's own layouts, so one ray crosses the boundary as a
+// pointer to the caller's Ray and Hit: no copy and no conversion per ray (the plugin is
+// opaque code the compiler cannot see into, so it cannot assume the hit unchanged).
 static_assert(sizeof(Ray) == sizeof(AccelPluginRay) && offsetof(Ray, dir) == offsetof(AccelPluginRay, dir) &&
               offsetof(Ray, t_min) == offsetof(AccelPluginRay, t_min) &&
               offsetof(Ray, t_max) == offsetof(AccelPluginRay, t_max));
+static_assert(sizeof(Hit) == sizeof(AccelPluginHit) && offsetof(Hit, u) == offsetof(AccelPluginHit, u) &&
+              offsetof(Hit, v) == offsetof(AccelPluginHit, v) &&
+              offsetof(Hit, geom_id) == offsetof(AccelPluginHit, geom_id) &&
+              offsetof(Hit, prim_id) == offsetof(AccelPluginHit, prim_id) &&
+              offsetof(Hit, ng) == offsetof(AccelPluginHit, ng));
 static_assert(sizeof(Vec3f) == 3 * sizeof(float), "positions are passed as packed xyz floats");
+
+// Counters are added to by the plugin in place, in the caller's per-thread statistics.
+static_assert(offsetof(TraceStats, prim_tests) == offsetof(TraceStats, nodes_visited) + sizeof(uint64_t) &&
+              offsetof(AccelPluginCounters, prim_tests) == sizeof(uint64_t));
+AccelPluginCounters* as_abi(TraceStats& stats) {
+    return stats.counting ? reinterpret_cast<AccelPluginCounters*>(&stats.nodes_visited) : nullptr;
+}
+
+const AccelPluginRay* as_abi(const Ray& ray) { return reinterpret_cast<const AccelPluginRay*>(&ray); }
+AccelPluginHit* as_abi(Hit& hit) { return reinterpret_cast<AccelPluginHit*>(&hit); }
 
 constexpr size_t kErrorBytes = 256;
 
@@ -136,6 +153,7 @@ public:
                 v.spheres = g.spheres;
             }
             views.push_back(v);
+            prims_.push_back(g.num_prims);
             for (uint32_t p = 0; p < g.num_prims; ++p) bounds_.extend(primitive_bounds(g, p));
         }
         AccelPluginBuildInfo bi{};
@@ -159,6 +177,7 @@ public:
         info_.bytes = api_->memory_used ? api_->memory_used(handle_) : 0;
         info_.counts_nodes = (api_->capabilities & ACCEL_PLUGIN_COUNTS_NODES) != 0;
         info_.counts_prims = (api_->capabilities & ACCEL_PLUGIN_COUNTS_PRIMS) != 0;
+        normals_ = (api_->capabilities & ACCEL_PLUGIN_REPORTS_NORMALS) != 0;
     }
 
     ~PluginAccelerator() override {
@@ -167,29 +186,21 @@ public:
 
     bool intersect(const Ray& ray, Hit& hit, TraceStats& stats) const override {
         ++stats.rays;
-        AccelPluginRay r;
-        std::memcpy(&r, &ray, sizeof r);
-        AccelPluginHit h;
-        AccelPluginCounters c{0, 0};
         char error[kErrorBytes];
         error[0] = 0;
-        const int rc = api_->intersect(handle_, &r, &h, stats.counting ? &c : nullptr, error, sizeof error);
-        add(stats, c);
+        const int rc = api_->intersect(handle_, as_abi(ray), as_abi(hit), as_abi(stats), error, sizeof error);
         if (rc == ACCEL_PLUGIN_MISS) return false;
         if (rc != ACCEL_PLUGIN_HIT) fail("intersect", rc, error);
-        take(ray, h, hit);
+        check(hit.geom_id, hit.prim_id);
+        if (!normals_) finish_hit(geometry_, ray, hit);
         return true;
     }
 
     bool occluded(const Ray& ray, TraceStats& stats) const override {
         ++stats.shadow_rays;
-        AccelPluginRay r;
-        std::memcpy(&r, &ray, sizeof r);
-        AccelPluginCounters c{0, 0};
         char error[kErrorBytes];
         error[0] = 0;
-        const int rc = api_->occluded(handle_, &r, stats.counting ? &c : nullptr, error, sizeof error);
-        add(stats, c);
+        const int rc = api_->occluded(handle_, as_abi(ray), as_abi(stats), error, sizeof error);
         if (rc == ACCEL_PLUGIN_MISS) return false;
         if (rc != ACCEL_PLUGIN_HIT) fail("occluded", rc, error);
         return true;
@@ -201,9 +212,9 @@ public:
         if (!has_batches()) return Accelerator::intersect_batch(rays, hits, stats);
         const uint32_t n = uint32_t(rays.size());
         Soa soa(rays);
-        std::vector<float> t(n), u(n), v(n);
+        std::vector<float> t(n), u(n), v(n), nx(n), ny(n), nz(n);
         std::vector<uint32_t> geom(n), prim(n);
-        AccelPluginHitsSoA out{t.data(), u.data(), v.data(), geom.data(), prim.data()};
+        AccelPluginHitsSoA out{t.data(), u.data(), v.data(), geom.data(), prim.data(), nx.data(), ny.data(), nz.data()};
         AccelPluginCounters c{0, 0};
         char error[kErrorBytes];
         error[0] = 0;
@@ -215,7 +226,7 @@ public:
         for (uint32_t i = 0; i < n; ++i) {
             hits[i] = Hit{};
             if (geom[i] == kInvalidId) continue;
-            take(rays[i], AccelPluginHit{t[i], u[i], v[i], geom[i], prim[i]}, hits[i]);
+            take(rays[i], AccelPluginHit{t[i], u[i], v[i], geom[i], prim[i], {nx[i], ny[i], nz[i]}}, hits[i]);
         }
     }
 
@@ -261,26 +272,37 @@ private:
         stats.prim_tests += c.prim_tests;
     }
 
-    /// Takes a plugin's hit, after checking its ids name a primitive: a wrong id would
-    /// otherwise be read out of bounds by the renderer, far from its cause.
+    /// A plugin's hit must name a primitive: a wrong id would otherwise be read out of
+    /// bounds by the renderer, far from its cause.
+    void check(uint32_t geom_id, uint32_t prim_id) const {
+        if (geom_id < prims_.size() && prim_id < prims_[geom_id]) [[likely]]
+            return;
+        bad_hit(geom_id, prim_id);
+    }
+    [[noreturn, gnu::cold, gnu::noinline]] void bad_hit(uint32_t geom_id, uint32_t prim_id) const {
+        char msg[96];
+        std::snprintf(msg, sizeof msg, "returned a hit on geometry %u, primitive %u, which does not exist", geom_id,
+                      prim_id);
+        fail("intersect", ACCEL_PLUGIN_ERROR, msg);
+    }
+
+    /// Takes a batched hit (checked as above).
     void take(const Ray& ray, const AccelPluginHit& h, Hit& hit) const {
-        if (h.geom_id >= geometry_.size() || h.prim_id >= geometry_[h.geom_id].num_prims) {
-            char msg[96];
-            std::snprintf(msg, sizeof msg, "returned a hit on geometry %u, primitive %u, which does not exist",
-                          h.geom_id, h.prim_id);
-            fail("intersect", ACCEL_PLUGIN_ERROR, msg);
-        }
+        check(h.geom_id, h.prim_id);
         hit.t = h.t;
         hit.u = h.u;
         hit.v = h.v;
         hit.geom_id = h.geom_id;
         hit.prim_id = h.prim_id;
-        finish_hit(geometry_, ray, hit);
+        if (normals_)
+            hit.ng = {h.ng[0], h.ng[1], h.ng[2]};
+        else
+            finish_hit(geometry_, ray, hit);
     }
 
     /// A failed trace is fatal: carrying on would render a silently wrong image, and the
     /// integrators have no error path per ray (accel_plugin.h, "Errors").
-    [[noreturn]] void fail(const char* what, int rc, const char* error) const {
+    [[noreturn, gnu::cold, gnu::noinline]] void fail(const char* what, int rc, const char* error) const {
         static std::mutex once;
         std::lock_guard lock(once);
         std::fprintf(stderr, "error: plugin %s: %s failed (%s): %s\n", path_.c_str(), what, code_name(rc),
@@ -293,7 +315,9 @@ private:
     std::unique_ptr<Library> lib_;
     const AccelPluginApi* api_;
     void* handle_ = nullptr;
+    bool normals_ = false;  ///< the plugin's hits carry their geometric normal
     std::vector<GeometryView> geometry_;
+    std::vector<uint32_t> prims_;  ///< primitives per geometry, for check()
     Bounds3f bounds_;
     BuildInfo info_;
 };
