@@ -1,5 +1,5 @@
 #!/usr/bin/python3
-"""Region means of our renders against Blender Cycles, in both light semantics (issue 12).
+"""Region means of our renders against Blender Cycles, in both light semantics.
 
 For each scene and light model, renders the course's 480x360 framing with our pathtracer
 and with Cycles (the harness in ../shared/peers/cycles), then prints, per region and

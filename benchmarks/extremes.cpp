@@ -232,7 +232,7 @@ std::vector<std::string> thin_walls(const Options& o, const std::vector<Placemen
 }  // namespace
 
 int main(int argc, char** argv) {
-    CLI::App app{"Numerical-stability sweep (issue 8): leaks at shared edges and vertices, false "
+    CLI::App app{"Numerical-stability sweep: leaks at shared edges and vertices, false "
                  "self-hits (acne) per ray-offset mode, grazing and axis-parallel rays, t and "
                  "barycentrics against a double-precision reference; per backend, per scale."};
     Options o;

@@ -1,5 +1,5 @@
 #!/bin/bash
-# Issue 14, "MIS at equal time": on Veach's scene (scenes/mis_veach.dae: a glossy floor,
+# MIS at equal time: on Veach's scene (scenes/mis_veach.dae: a glossy floor,
 # three spherical lights of equal power and radius 0.03, 0.12, 0.45), render a converged
 # reference, then each --strategy (mis, light, bsdf) for the same wall time with
 # --time-limit, several times and repeats, and print the RMSE of the glossy floor against

@@ -1,9 +1,9 @@
 #!/bin/bash
-# Issue 6 closing-note renders: 480x360, 64 spp, as the write-ups show.
+# The course scenes at 480x360, 64 spp, as the course write-ups show them.
 PT=${PT:-"$(dirname "$0")/../build/tools/pathtracer"}
 S=${PT_SHARED_SCENES:-"$(dirname "$0")/../../shared/scenes"}/cs184
 OUT=${1:-"$(dirname "$0")/results/renders"}; mkdir -p "$OUT"; PT=$(realpath "$PT"); S=$(realpath "$S"); cd "$OUT"
-# RENDERS=materials runs only the issue-14 section below.
+# RENDERS=materials runs only the materials section below.
 if [ "${RENDERS:-all}" != materials ]; then
 for sc in CBspheres_lambertian CBbunny banana; do
   /usr/bin/time -f "$sc wall %e s" $PT -q -r 480 360 -s 64 -l 4 -m 5 -f $sc.png $S/$sc.dae > $sc.log 2>&1
@@ -16,7 +16,7 @@ for m in 0 1 2 3 100; do
 done
 fi
 
-# Issue 14: materials, environment light and thin lens; a contact sheet of all of them
+# Materials, environment light and thin lens; a contact sheet of all of them
 # (materials_sheet.png, left to right, top to bottom: CBgems glass, the project's
 # Cornell box with mirror/glass/gold spheres, the same through a thin lens, DamagedHelmet,
 # BoomBox and Suzanne under a procedural sky; last row: the MIS equal-time comparison).

@@ -1,16 +1,17 @@
 #!/bin/bash
-# One command that regenerates benchmarks/results/: the accelerator table, the
-# speed-accuracy study (CSV + text tables) and their plots, and the numerical-stability
-# sweep (results/extremes/, ~4 minutes).
+# One command that regenerates the core of benchmarks/results/: the one-thread accelerator
+# runs (results/accel/), the speed-accuracy study (CSV + text tables) and their plots, and
+# the numerical-stability sweep (results/extremes/, ~4 minutes). Each section of
+# RESULTS.md gives its own command; this script runs those of the sections named here.
 #
 #   benchmarks/run_study.sh [all|accel|tradeoff|extremes|plots]    (default: all)
 #
 # Environment: BUILD (build dir, default build-bench), PT_SHARED_SCENES (default
-# ../shared/scenes), REPEATS (accel_bench timed repeats, default 5), MPIRUN (a launcher
+# ../shared/scenes), MPIRUN (a launcher
 # prefix for the tradeoff sweep, e.g. "mpirun -np 8 --hostfile hosts": its points are
 # spread over the ranks and the reference is rendered by all of them; rows are identical
 # to a single-process run).
-# Takes ~10 minutes on 2 cores when the machine is otherwise idle: accel_bench ~5 min,
+# Takes ~15 minutes on 2 cores when the machine is otherwise idle: accel_bench ~10 min,
 # tradeoff ~5 min with 3 repeats (+2.5 min the first time for the two 4096-spp
 # references, which are then cached in results/reference/).
 set -euo pipefail
@@ -20,36 +21,24 @@ BUILD=${BUILD:-$ROOT/build-bench}
 SHARED=${PT_SHARED_SCENES:-$ROOT/../shared/scenes}/cs184
 OUT=$HERE/results
 STAGE=${1:-all}
-REPEATS=${REPEATS:-5}
 mkdir -p "$OUT"
 
 cmake -S "$ROOT" -B "$BUILD" -G Ninja >/dev/null
 cmake --build "$BUILD" --target scenegen accel_bench tradeoff extremes -j"$(nproc)"
 
 if [[ $STAGE == all || $STAGE == accel ]]; then
-  # Generated meshes live in the build dir (90 MB each), not in the repository.
-  GEN=$BUILD/generated; mkdir -p "$GEN"
-  [[ -f $GEN/sphere-5m.glb ]] || "$BUILD/tools/scenegen" --kind sphere -n 5000000 --seed 1 -o "$GEN/sphere-5m.glb"
-  [[ -f $GEN/field-1m.glb ]] || "$BUILD/tools/scenegen" --kind field -n 1000000 --seed 1 -o "$GEN/field-1m.glb"
-  [[ -f $GEN/terrain-1m.glb ]] || "$BUILD/tools/scenegen" --kind terrain -n 1000000 --seed 1 -o "$GEN/terrain-1m.glb"
-  [[ -f $GEN/sliver-200k.glb ]] || "$BUILD/tools/scenegen" --kind sliver -n 200000 --seed 1 -o "$GEN/sliver-200k.glb"
-  "$BUILD/benchmarks/accel_bench" --repeats "$REPEATS" --build-repeats 3 --csv "$OUT/accel.csv" \
-    --scene "$ROOT/scenes/cornell.dae" --scene "$SHARED/cow.dae" --scene "$SHARED/CBbunny.dae" \
-    --scene "$SHARED/maxplanck.dae" --scene "$GEN/sphere-5m.glb" | tee "$OUT/accel.txt"
-  # The issue's two targets on the 5M mesh (2 threads >= 1.8x one thread on diffuse rays;
-  # SAH build <= 3x Embree high) are within the machine's run-to-run noise, so they get
-  # five independent runs of their own; RESULTS.md reports the medians.
-  : > "$OUT/accel_5m_runs.txt"
-  for run in 1 2 3 4 5; do
-    "$BUILD/benchmarks/accel_bench" --scene "$GEN/sphere-5m.glb" --kinds diffuse --no-course \
-      --backends custom:sah,embree:high --repeats 7 --csv "$OUT/accel_5m_run$run.csv" 2>/dev/null \
-      | grep -A2 "^thread scaling" | tail -2 | sed "s/^/run $run:/" | tee -a "$OUT/accel_5m_runs.txt"
+  # RESULTS.md, "Accelerators": three one-thread runs on the five scenes. The generated
+  # mesh lives in the build dir (90 MB), not in the repository.
+  GEN=$BUILD/generated; mkdir -p "$GEN" "$OUT/accel"
+  [[ -f $GEN/sphere5m.glb ]] || "$BUILD/tools/scenegen" --kind sphere -n 5000000 --seed 1 -o "$GEN/sphere5m.glb"
+  for run in 1 2 3; do
+    "$BUILD/benchmarks/accel_bench" --scene "$SHARED/cow.dae" --scene "$SHARED/CBbunny.dae" \
+      --scene "$SHARED/maxplanck.dae" --scene "$SHARED/bunny.dae" --scene "$GEN/sphere5m.glb" \
+      --rays 200000 --repeats 3 --threads 1 --no-course \
+      --backends custom:sah,custom:sah:watertight,custom:sah:sse2,custom:sah:avx2,custom:sah:float,embree:high \
+      --csv "$OUT/accel/one_thread_run$run.csv" | tee "$OUT/accel/one_thread_run$run.txt"
   done
-  # The pathological meshes, without embree:high:count (counting through our
-  # intersector is minutes on 1000:1 slivers and adds nothing to the comparison).
-  "$BUILD/benchmarks/accel_bench" --repeats 3 --no-course --csv "$OUT/accel_generated.csv" \
-    --backends custom:midpoint,custom:sah,embree:high --rays 100000 \
-    --scene "$GEN/field-1m.glb" --scene "$GEN/terrain-1m.glb" --scene "$GEN/sliver-200k.glb" | tee "$OUT/accel_generated.txt"
+  python3 "$HERE/plot/tables.py" runs "$OUT"/accel/one_thread_run{1,2,3}.csv > "$OUT/accel/one_thread_table.md"
 fi
 
 if [[ $STAGE == all || $STAGE == tradeoff ]]; then
@@ -59,7 +48,7 @@ if [[ $STAGE == all || $STAGE == tradeoff ]]; then
 fi
 
 if [[ $STAGE == all || $STAGE == extremes ]]; then
-  # Issue 8: 10M edge/vertex rays and 5M acne points per placement and backend. Exits 1 on
+  # 10M edge/vertex rays and 5M acne points per placement and backend. Exits 1 on
   # a watertight leak, an error-bound false self-hit or a thin-wall leak.
   mkdir -p "$OUT/extremes"
   "$BUILD/benchmarks/extremes" --rays 10000000 --acne 5000000 --scenes "$SHARED" \
@@ -79,10 +68,10 @@ if [[ $STAGE == all || $STAGE == plots ]]; then
       gnuplot -c "$HERE/plot/adaptive.gp" "$OUT/tradeoff.csv" "$sc" "$OUT/adaptive_${sc}.png"
     done
   fi
-  if [[ -f $OUT/accel.csv ]]; then
-    gnuplot -c "$HERE/plot/accel.gp" "$OUT/accel.csv" "$OUT/accel_ratio.png"
-    python3 "$HERE/plot/tables.py" accel "$OUT/accel.csv" > "$OUT/accel_table.md"
-    [[ -f $OUT/accel_generated.csv ]] && python3 "$HERE/plot/tables.py" accel "$OUT/accel_generated.csv" >> "$OUT/accel_table.md"
+  if compgen -G "$OUT/accel/one_thread_run*.csv" >/dev/null; then
+    python3 -c "import matplotlib" 2>/dev/null || apt-get install -y python3-matplotlib >/dev/null
+    python3 "$HERE/plot/accel_ratio.py" "$OUT"/accel/one_thread_run*.csv "$OUT"/accel/threads_wait/run*.csv \
+      -o "$OUT/accel_ratio.png"
   fi
   [[ -f $OUT/tradeoff.csv ]] && python3 "$HERE/plot/tables.py" tradeoff "$OUT/tradeoff.csv" > "$OUT/tradeoff_table.md"
   echo "plots in $OUT"

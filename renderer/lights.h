@@ -18,7 +18,7 @@ namespace renderer {
 using accel::Vec3f;
 struct Interaction;
 
-/// Which surfaces are lights (issue 12, item 3; README "Light semantics").
+/// Which surfaces are lights (renderer/README.md, "Light semantics").
 ///  - Course: the CS184 course exactly. Light sampling (-l) draws only from the file's
 ///    explicit lights (library_lights: CGL area lights front side only, point, spot,
 ///    directional). Emissive meshes and spheres are seen, from both sides, by camera

@@ -252,7 +252,7 @@ TEST(Emitters, DoNotReflect) {
     EXPECT_DOUBLE_EQ(e.se, 0.0);
 }
 
-// --lights=course (issue 12, item 3): the FormFactor scene with BOTH descriptions of its
+// --lights=course: the FormFactor scene with BOTH descriptions of its
 // light, the area light (front side down) and the emissive panel at the same place.
 class LightModels : public FormFactor {
 protected:
