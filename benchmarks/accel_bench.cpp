@@ -587,11 +587,13 @@ void write_csv(const std::string& csv_path, const std::vector<Row>& rows) {
 
 /// The table: one row per (scene, backend, ray kind, threads).
 void print_table(const std::vector<Row>& rows) {
-    std::printf("%-18s %9s %-22s %-7s %-8s %3s %9s %9s %10s %10s %9s %10s %5s\n", "scene", "triangles", "backend",
-                "kernel", "rays", "thr", "Mrays/s", "vs embree", "tests/ray", "nodes/ray", "build ms", "MiB", "cpus");
+    int wb = 22, wk = 10;  // backend and kernel columns, widened for long labels (plugins)
+    for (const Row& r : rows) wb = std::max(wb, int(r.backend.size())), wk = std::max(wk, int(r.kernel.size()));
+    std::printf("%-18s %9s %-*s %-*s %-8s %3s %9s %9s %10s %10s %9s %10s %5s\n", "scene", "triangles", wb, "backend",
+                wk, "kernel", "rays", "thr", "Mrays/s", "vs embree", "tests/ray", "nodes/ray", "build ms", "MiB", "cpus");
     for (const Row& r : rows)
-        std::printf("%-18s %9llu %-22s %-7s %-8s %3d %9.3f %9.3f %10s %10s %9.1f %10.2f %5.2f\n", r.scene.c_str(),
-                    (unsigned long long)r.triangles, r.backend.c_str(), r.kernel.c_str(), r.kind.c_str(), r.threads,
+        std::printf("%-18s %9llu %-*s %-*s %-8s %3d %9.3f %9.3f %10s %10s %9.1f %10.2f %5.2f\n", r.scene.c_str(),
+                    (unsigned long long)r.triangles, wb, r.backend.c_str(), wk, r.kernel.c_str(), r.kind.c_str(), r.threads,
                     r.mrays, r.ratio, r.counts_prims ? fmt::format("{:.2f}", r.tests_per_ray).c_str() : "-",
                     r.counts_nodes ? fmt::format("{:.2f}", r.nodes_per_ray).c_str() : "-", r.build_ms,
                     double(r.bytes) / (1024.0 * 1024.0), r.cpu_util);

@@ -3,6 +3,7 @@
 #include <CLI/CLI.hpp>
 #include <fmt/format.h>
 
+#include <algorithm>
 #include <cstdio>
 #include <fstream>
 #include <map>
@@ -184,7 +185,9 @@ std::vector<renderer::RaySet> make_sets(const Options& o, const std::vector<rend
 /// collects every disagreement in `bad`.
 uint64_t compare_all(const Backends& b, const Built& built, const std::vector<renderer::RaySet>& sets,
                      const renderer::SceneGeometry& geometry, std::vector<renderer::Disagreement>& bad) {
-    std::printf("%-12s %-26s %9s %10s %10s %11s %7s %9s %6s %9s\n", "kind", "backend", "rays", "hit-agree",
+    int w = 26;  // the backend column, widened for long labels (plugins' file names)
+    for (const auto& s : b.specs) w = std::max(w, int(s.label.size()));
+    std::printf("%-12s %-*s %9s %10s %10s %11s %7s %9s %6s %9s\n", "kind", w, "backend", "rays", "hit-agree",
                 "prim-agree", "max|dt|/t", "ties", "numerical", "real", "tests/ray");
     uint64_t total_real = 0, total_rays = 0;
     for (const auto& set : sets) {
@@ -197,8 +200,8 @@ uint64_t compare_all(const Backends& b, const Built& built, const std::vector<re
             total_real += r.real;
             total_rays += r.rays;
             std::string tpr = other.info().counts_prims ? fmt::format("{:.2f}", r.stats.tests_per_ray()) : "-";
-            std::printf("%-12s %-26s %9llu %9.5f%% %9.5f%% %11.3g %7llu %9llu %6llu %9s\n",
-                        renderer::ray_kind_name(set.kind), b.specs[i].label.c_str(), (unsigned long long)r.rays,
+            std::printf("%-12s %-*s %9llu %9.5f%% %9.5f%% %11.3g %7llu %9llu %6llu %9s\n",
+                        renderer::ray_kind_name(set.kind), w, b.specs[i].label.c_str(), (unsigned long long)r.rays,
                         r.rays ? 100.0 * double(r.hit_agree) / double(r.rays) : 100.0,
                         r.rays ? 100.0 * double(r.prim_agree) / double(r.rays) : 100.0, r.max_rel_dt,
                         (unsigned long long)r.ties, (unsigned long long)r.numerical,

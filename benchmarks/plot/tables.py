@@ -5,6 +5,8 @@
   tables.py tradeoff TRADEOFF_CSV > tradeoff_table.md
   tables.py runs ACCEL_CSV...     the one-thread table over several runs of one command
   tables.py threads ACCEL_CSV...  thread scaling per run, beside the machine probe
+  tables.py plugins ACCEL_CSV...  our BVH as a plugin against it compiled in, and the
+                                  example plugin against Embree (RESULTS.md, "Plugins")
 
 The tradeoff table ranks settings by efficiency, 1 / (rel_rmse^2 * seconds): for an
 unbiased estimator error falls as 1/sqrt(time), so err^2 * time is constant along a
@@ -128,6 +130,35 @@ def runs(paths, fast="custom:sah:fast"):
               f">= 1.2 on {sum(x >= 1.2 for x, _ in f)}; lowest {lo[0]:.2f} ({lo[1]})")
 
 
+def plugins(paths, ours="plugin:libaccel_plugin_ours.so:sah", example="plugin:libaccel_plugin_example.so",
+            fast="custom:sah:fast"):
+    """Per one-thread cell: our BVH through the plugin ABI over our BVH compiled in (each
+    run, and the median extra time per ray), and the example plugin over Embree HIGH."""
+    idx = [_index(p) for p in paths]
+    cells = list(OrderedDict.fromkeys((k[0], k[2]) for k in idx[0] if k[1] == fast and k[3] == 1))
+    med = lambda v: sorted(v)[len(v) // 2]
+    mr = lambda ix, sc, b, k: float(ix[(sc, b, k, 1)]["mrays_per_s"])
+    print("| scene | rays | ours compiled in, Mrays/s | ours as a plugin / compiled in, "
+          + " / ".join(f"run {i + 1}" for i in range(len(idx)))
+          + " | extra ns per ray | example plugin / Embree HIGH | example: tests/ray, nodes/ray |")
+    print("|" + "---|" * 7)
+    ratios = []
+    for sc, k in cells:
+        r = [mr(ix, sc, ours, k) / mr(ix, sc, fast, k) for ix in idx]
+        ratios.append((med(r), f"{sc} {k}"))
+        ns = med([1e3 / mr(ix, sc, ours, k) - 1e3 / mr(ix, sc, fast, k) for ix in idx])
+        ex = med([mr(ix, sc, example, k) / mr(ix, sc, "embree:high", k) for ix in idx])
+        row = idx[0][(sc, example, k, 1)]
+        print(f"| {sc.rsplit('.', 1)[0]} | {k} | {med([mr(ix, sc, fast, k) for ix in idx]):.2f} | "
+              + " / ".join(f"{x:.2f}" for x in r) + f" | {ns:+.1f} | {ex:.2f} | "
+              f"{float(row['tests_per_ray']):.1f}, {float(row['nodes_per_ray']):.1f} |")
+    print()
+    v = sorted(x for x, _ in ratios)
+    lo = min(ratios)
+    print(f"ours as a plugin / compiled in: median over the {len(v)} cells' medians {med(v):.3f}; "
+          f"{sum(x >= 0.95 for x in v)} of {len(v)} cells within 5 %; lowest {lo[0]:.3f} ({lo[1]})")
+
+
 def threads(paths, target=1.8):
     """Per run: each backend's N-thread / 1-thread scaling, the cells below `target`, and
     the machine probe accel_bench measured beside them (machine_probe.h): the scaling
@@ -173,11 +204,11 @@ def threads(paths, target=1.8):
 
 
 if __name__ == "__main__":
-    if len(sys.argv) < 3 or sys.argv[1] not in ("accel", "tradeoff", "runs", "threads"):
+    if len(sys.argv) < 3 or sys.argv[1] not in ("accel", "tradeoff", "runs", "threads", "plugins"):
         sys.exit(__doc__)
     if sys.argv[1] in ("accel", "tradeoff"):
         if len(sys.argv) != 3:
             sys.exit(__doc__)
         (accel if sys.argv[1] == "accel" else tradeoff)(sys.argv[2])
     else:
-        (runs if sys.argv[1] == "runs" else threads)(sys.argv[2:])
+        {"runs": runs, "threads": threads, "plugins": plugins}[sys.argv[1]](sys.argv[2:])

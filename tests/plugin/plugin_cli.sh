@@ -84,7 +84,7 @@ fi
 
 # Installed, the SDK builds the example on its own (an outside project's view).
 cmake --install "$BUILD" --prefix "$TMP/prefix" >/dev/null || fail "cmake --install"
-cmake -S "$SRC/accel/plugin/example" -B "$TMP/standalone" -DCMAKE_PREFIX_PATH="$TMP/prefix" \
+cmake -S "$SRC/accel/plugin/example" -B "$TMP/standalone" -G Ninja -DCMAKE_PREFIX_PATH="$TMP/prefix" \
     -DCMAKE_BUILD_TYPE=Release >"$TMP/cfg" 2>&1 || fail "standalone configure: $(tail -5 "$TMP/cfg")"
 cmake --build "$TMP/standalone" >"$TMP/bld" 2>&1 || fail "standalone build: $(tail -5 "$TMP/bld")"
 "$TMP/prefix/bin/pathtracer" --accel="plugin:$TMP/standalone/libaccel_plugin_example.so" -r 32 24 -s 2 \
