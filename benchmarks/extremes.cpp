@@ -17,6 +17,7 @@
 
 #include "accel/bvh/bvh.h"
 #include "benchmarks/extremes.h"
+#include "renderer/backend_spec.h"
 #include "tools/cli.h"
 
 using namespace extremes;
@@ -32,6 +33,7 @@ struct Options {
     std::string scenes_dir = std::string(PT_SOURCE_DIR_BENCH) + "/../shared/scenes/cs184";
     uint64_t seed = 8;
     std::string isa = "auto", nodes = "auto";
+    std::string backends;  ///< --backends: specs replacing the default cases
     std::vector<double> only;
 };
 
@@ -42,6 +44,9 @@ void add_options(CLI::App& app, Options& o) {
     app.add_option("--ref", o.ref, "Reference-comparison rays per placement and backend (default rays/10)");
     app.add_flag("--quick", o.quick, "Smoke run: 20000 leak rays, a reduced placement list");
     app.add_flag("--no-embree", o.no_embree, "Only the custom backends");
+    app.add_option("--backends", o.backends,
+                   "Backend specs to sweep instead of the default ones (custom fast and watertight, Embree, "
+                   "Embree robust), e.g. custom:sah:watertight,plugin:build/plugins/libaccel_plugin_example.so");
     app.add_flag("--no-cs184", o.no_cs184, "Only the generated meshes");
     app.add_option("--scenes", o.scenes_dir, "Folder with cow.dae, teapot.dae, bunny.dae");
     app.add_option("--csv", o.csv, "CSV output (one row per placement, mesh and backend)");
@@ -96,6 +101,32 @@ std::vector<Placement> placements(const Options& o) {
 
 /// Every backend case, the custom ones on --isa's kernel and --nodes' layout.
 std::vector<BackendCase> backends(const Options& o) {
+    if (!o.backends.empty()) {
+        std::vector<BackendCase> cases;
+        try {
+            std::vector<renderer::BackendSpec> specs = renderer::parse_backend_specs(o.backends);
+            accel::Isa isa = accel::Isa::Auto;
+            accel::parse_isa(o.isa, isa);
+            renderer::apply_isa(specs, isa);
+            accel::NodeLayout layout = accel::NodeLayout::Auto;
+            accel::parse_layout(o.nodes, layout);
+            renderer::apply_layout(specs, layout);
+            for (const renderer::BackendSpec& s : specs) {
+                // A plugin that cannot be loaded or built is refused now, not mid-sweep:
+                // one triangle is enough to load it and run its build.
+                const accel::Vec3f tri[4] = {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {0, 0, 0}};
+                const uint32_t idx[3] = {0, 1, 2};
+                const accel::GeometryView gv = accel::GeometryView::triangles(tri, 3, idx, 1);
+                accel::create_accelerator(s.backend, std::span<const accel::GeometryView>(&gv, 1), s.options);
+                cases.push_back({s.label, s.backend, s.options});
+            }
+        } catch (const std::invalid_argument& e) {
+            tools::fail("extremes", e.what());
+        } catch (const accel::AccelError& e) {
+            tools::fail("extremes", e.what());
+        }
+        return cases;
+    }
     std::vector<std::string> available = accel::available_backends();
     const bool have_embree =
         !o.no_embree && std::find(available.begin(), available.end(), "embree") != available.end();

@@ -82,6 +82,19 @@ for r in rows:
 PY
 fi
 
+# extremes sweeps it beside our watertight BVH (its leaks are reported, not failed: only
+# our watertight mode promises none), and refuses a plugin that cannot build.
+EXTREMES=$BUILD/benchmarks/extremes
+if [ -x "$EXTREMES" ]; then
+    "$EXTREMES" --quick --no-cs184 --backends "custom:sah:watertight,plugin:$EXAMPLE" --csv "$TMP/ex.csv" \
+        >"$TMP/ex" 2>&1 || fail "extremes with the example plugin: exit $?: $(tail -3 "$TMP/ex")"
+    grep -q '^s=1e+00 t=0e+00 plugin:libaccel_plugin_example.so ' "$TMP/ex" || fail "extremes printed no plugin row"
+    "$EXTREMES" --quick --no-cs184 --backends "plugin:${BAD}_build_fails.so" --csv "$TMP/ex2.csv" >/dev/null 2>"$TMP/err"
+    rc=$?
+    [ $rc -eq 2 ] && grep -q "build failed (error): this plugin refuses every scene" "$TMP/err" ||
+        fail "extremes with a plugin whose build fails: exit $rc: $(cat "$TMP/err")"
+fi
+
 # Installed, the SDK builds the example on its own (an outside project's view).
 cmake --install "$BUILD" --prefix "$TMP/prefix" >/dev/null || fail "cmake --install"
 cmake -S "$SRC/accel/plugin/example" -B "$TMP/standalone" -G Ninja -DCMAKE_PREFIX_PATH="$TMP/prefix" \
