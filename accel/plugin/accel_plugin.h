@@ -11,7 +11,7 @@
  * abi_version == ACCEL_PLUGIN_ABI_VERSION (and that struct_size covers the fields it
  * reads), then calls build once and intersect/occluded many times.
  * accel/plugin/README.md walks through writing, building, cross-checking and
- * benchmarking a plugin; accel/plugin/example/ is a complete one in about 300 lines.
+ * benchmarking a plugin; accel/plugin/example/ is a complete one in about 350 lines.
  *
  * Invariants every plugin must keep:
  *   - Rays: the segment org + t * dir, t in [t_min, t_max]. dir is not normalised; t is in
@@ -185,7 +185,8 @@ typedef struct AccelPluginApi {
                  void** handle, AccelPluginBuildInfo* info, char* error, size_t error_size);
 
     /* Closest hit of one ray. Returns ACCEL_PLUGIN_HIT and fills *hit, ACCEL_PLUGIN_MISS
-     * (leaving *hit as it was), or a negative error code with a message. */
+     * (leaving *hit as it was), or a negative error code with a message. `ray` and `hit`
+     * point into the caller's memory for this call only. */
     int (*intersect)(const void* handle, const AccelPluginRay* ray, AccelPluginHit* hit,
                      AccelPluginCounters* counters, char* error, size_t error_size);
 
