@@ -336,13 +336,7 @@ std::vector<renderer::BackendSpec> backend_specs(const Options& o, uint64_t tris
     }
     std::vector<renderer::BackendSpec> specs;
     try {
-        specs = renderer::parse_backend_specs(list);
-        accel::Isa isa = accel::Isa::Auto;
-        accel::parse_isa(o.isa_arg, isa);
-        renderer::apply_isa(specs, isa);
-        accel::NodeLayout layout = accel::NodeLayout::Auto;
-        accel::parse_layout(o.nodes_arg, layout);
-        renderer::apply_layout(specs, layout);
+        specs = renderer::parse_backend_specs(list, o.isa_arg, o.nodes_arg);
     } catch (const std::invalid_argument& e) {
         fail(e.what());
     }

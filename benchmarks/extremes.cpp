@@ -104,14 +104,7 @@ std::vector<BackendCase> backends(const Options& o) {
     if (!o.backends.empty()) {
         std::vector<BackendCase> cases;
         try {
-            std::vector<renderer::BackendSpec> specs = renderer::parse_backend_specs(o.backends);
-            accel::Isa isa = accel::Isa::Auto;
-            accel::parse_isa(o.isa, isa);
-            renderer::apply_isa(specs, isa);
-            accel::NodeLayout layout = accel::NodeLayout::Auto;
-            accel::parse_layout(o.nodes, layout);
-            renderer::apply_layout(specs, layout);
-            for (const renderer::BackendSpec& s : specs) {
+            for (const renderer::BackendSpec& s : renderer::parse_backend_specs(o.backends, o.isa, o.nodes)) {
                 // A plugin that cannot be loaded or built is refused now, not mid-sweep:
                 // one triangle is enough to load it and run its build.
                 const accel::Vec3f tri[4] = {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {0, 0, 0}};

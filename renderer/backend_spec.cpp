@@ -114,4 +114,16 @@ std::vector<BackendSpec> parse_backend_specs(const std::string& list) {
     return out;
 }
 
+std::vector<BackendSpec> parse_backend_specs(const std::string& list, const std::string& isa,
+                                             const std::string& nodes) {
+    std::vector<BackendSpec> specs = parse_backend_specs(list);
+    accel::Isa i = accel::Isa::Auto;
+    if (!accel::parse_isa(isa, i)) throw std::invalid_argument("unknown kernel '" + isa + "'");
+    apply_isa(specs, i);
+    accel::NodeLayout l = accel::NodeLayout::Auto;
+    if (!accel::parse_layout(nodes, l)) throw std::invalid_argument("unknown node layout '" + nodes + "'");
+    apply_layout(specs, l);
+    return specs;
+}
+
 }  // namespace renderer

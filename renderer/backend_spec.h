@@ -37,4 +37,10 @@ std::string kernel_name(const BackendSpec& spec, const accel::BuildInfo& built);
 /// Comma-separated list of specs.
 std::vector<BackendSpec> parse_backend_specs(const std::string& list);
 
+/// A tool's backend list with its --isa and --nodes words (auto|sse2|avx2|avx512,
+/// auto|float|quantized) applied to every custom spec that names none: parse_backend_specs,
+/// apply_isa, apply_layout. Throws std::invalid_argument naming a bad word.
+std::vector<BackendSpec> parse_backend_specs(const std::string& list, const std::string& isa,
+                                             const std::string& nodes);
+
 }  // namespace renderer

@@ -118,14 +118,7 @@ Backends choose_backends(const Options& o, bool small) {
             if (have_embree) list += ",embree:high";
             if (small) list += ",naive:fast";
         }
-        accel::Isa isa = accel::Isa::Auto;
-        accel::parse_isa(o.isa_arg, isa);
-        std::vector<renderer::BackendSpec> all = renderer::parse_backend_specs(list);
-        renderer::apply_isa(all, isa);
-        accel::NodeLayout layout = accel::NodeLayout::Auto;
-        accel::parse_layout(o.nodes_arg, layout);
-        renderer::apply_layout(all, layout);
-        for (auto& s : all)
+        for (auto& s : renderer::parse_backend_specs(list, o.isa_arg, o.nodes_arg))
             if (s.label != b.ref.label) b.specs.push_back(s);
     } catch (const std::invalid_argument& e) {
         fail(e.what());
