@@ -6,7 +6,6 @@
 // Options, separated by ':' or ',': the words of a custom backend spec: sah | midpoint |
 // sbvh, fast | watertight, auto | sse2 | avx2 | avx512, auto | float | quantized, leafN.
 #include <cstdio>
-#include <cstring>
 #include <exception>
 #include <memory>
 #include <new>
