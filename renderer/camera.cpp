@@ -2,6 +2,7 @@
 
 #include <fmt/format.h>
 
+#include <algorithm>
 #include <cmath>
 #include <fstream>
 #include <sstream>
@@ -53,6 +54,21 @@ accel::Ray Camera::generate_ray(float x, float y, float u1, float u2) const {
     ray.org = pos_ + right_ * (r * std::cos(phi)) + up_ * (r * std::sin(phi));
     ray.dir = accel::normalize(focus - ray.org);
     return ray;
+}
+
+PixelSpread Camera::pixel_spread(int width, int height, int spp) const {
+    PixelSpread s;
+    if (width <= 0 || height <= 0) return s;
+    // pbrt-v4 (Camera::Approximate_dp_dxy, 5.2.4): more samples per pixel already
+    // average over the pixel, so each one's filter narrows, down to an eighth.
+    const float scale = std::max(0.125f, 1.0f / std::sqrt(float(std::max(1, spp))));
+    s.position = pos_;
+    s.right = right_;
+    s.up = up_;
+    s.forward = fwd_;
+    s.dx = 2.0f * tan_h_ / float(width) * scale;
+    s.dy = 2.0f * tan_v_ / float(height) * scale;
+    return s;
 }
 
 CameraSettings read_camera_settings(const std::string& path) {

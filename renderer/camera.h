@@ -6,6 +6,7 @@
 #include <string>
 
 #include "accel/ray.h"
+#include "renderer/texture.h"
 #include "scenes/scene.h"
 
 namespace renderer {
@@ -40,6 +41,10 @@ public:
     }
     float lens_radius() const { return lens_radius_; }
     float focal_distance() const { return focal_distance_; }
+
+    /// The per-pixel spread of a width x height image at `spp` samples per pixel, for
+    /// texture footprints (renderer/texture.h).
+    PixelSpread pixel_spread(int width, int height, int spp) const;
 
     Vec3f position() const { return pos_; }
     Vec3f forward() const { return fwd_; }

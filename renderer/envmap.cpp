@@ -4,11 +4,12 @@
 #include <cmath>
 
 #include "renderer/sampling.h"
+#include "renderer/texture.h"
 
 namespace renderer {
 
 EnvironmentMap::EnvironmentMap(const scenes::Texture& image, const Vec3f& up, const Vec3f& scale)
-    : w_(image.width), h_(image.height), rgb_(image.rgb), scale_(scale) {
+    : w_(image.empty() ? 0 : image.width), h_(image.empty() ? 0 : image.height), image_(&image), scale_(scale) {
     up_ = accel::normalize(up);
     onb(up_, e1_, e2_);
     // Piecewise-constant weights: luminance x sin(theta) at the row centre, so the pdf in
@@ -41,8 +42,10 @@ EnvironmentMap::EnvironmentMap(const scenes::Texture& image, const Vec3f& up, co
 }
 
 Vec3f EnvironmentMap::texel(uint32_t x, uint32_t y) const {
-    const float* p = &rgb_[(size_t(y) * w_ + x) * 3];
-    return {p[0] * scale_.x, p[1] * scale_.y, p[2] * scale_.z};
+    // Unfiltered: the sampling distribution is piecewise constant over texels, and the
+    // radiance must be the same function.
+    const Vec3f c = fetch(*image_, 0, x, y).rgb();
+    return {c.x * scale_.x, c.y * scale_.y, c.z * scale_.z};
 }
 
 void EnvironmentMap::to_uv(const Vec3f& d, float& u, float& v) const {

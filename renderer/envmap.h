@@ -21,8 +21,11 @@ using accel::Vec3f;
 class EnvironmentMap {
 public:
     EnvironmentMap() = default;
-    /// `up`: the scene's up axis (the map's pole). `scale` multiplies the radiance.
+    /// `up`: the scene's up axis (the map's pole). `scale` multiplies the radiance. The map
+    /// reads `image` (level 0, at its stored precision) in place rather than keeping a
+    /// copy: the image must outlive the map (the scene's textures do).
     EnvironmentMap(const scenes::Texture& image, const Vec3f& up, const Vec3f& scale = Vec3f(1.0f));
+    EnvironmentMap(scenes::Texture&&, const Vec3f&, const Vec3f& = Vec3f(1.0f)) = delete;
 
     bool empty() const { return w_ == 0; }
     Vec3f radiance(const Vec3f& dir) const;
@@ -38,7 +41,7 @@ private:
     Vec3f texel(uint32_t x, uint32_t y) const;
 
     uint32_t w_ = 0, h_ = 0;
-    std::vector<float> rgb_;
+    const scenes::Texture* image_ = nullptr;
     Vec3f scale_{1.0f};
     Vec3f e1_, e2_, up_;               // frame: up_ is the pole
     std::vector<float> row_cdf_;       // h_+1 entries, marginal over rows

@@ -9,6 +9,7 @@
 #include <cctype>
 #include <cmath>
 #include <cstdio>
+#include <cstring>
 #include <filesystem>
 #include <sstream>
 #include <stdexcept>
@@ -121,22 +122,45 @@ scenes::Texture load_environment_image(const std::string& path) {
     const OIIO::ImageSpec& spec = in->spec();
     if (spec.width <= 0 || spec.height <= 0 || spec.nchannels < 1 || uint64_t(spec.width) * spec.height > (1u << 28))
         throw scenes::SceneError(path + ": environment map has an unsupported size");
-    const int nc = spec.nchannels;
-    std::vector<float> px(size_t(spec.width) * spec.height * nc);
-    if (!in->read_image(0, 0, 0, nc, OIIO::TypeDesc::FLOAT, px.data()))
+    // Kept at the file's precision (EXR half stays half; RGBE and float stay float; 8- and
+    // 16-bit files stay integers, read as OIIO reads them, without a transfer curve), and
+    // only R, G, B: the file is decoded straight into the texture, with no float copy.
+    const OIIO::TypeDesc::BASETYPE base = OIIO::TypeDesc::BASETYPE(spec.format.basetype);
+    const scenes::TexelFormat format = base == OIIO::TypeDesc::HALF     ? scenes::TexelFormat::F16
+                                       : base == OIIO::TypeDesc::UINT8  ? scenes::TexelFormat::U8
+                                       : base == OIIO::TypeDesc::UINT16 ? scenes::TexelFormat::U16
+                                                                        : scenes::TexelFormat::F32;
+    const OIIO::TypeDesc type = format == scenes::TexelFormat::F16   ? OIIO::TypeDesc::HALF
+                                : format == scenes::TexelFormat::U8  ? OIIO::TypeDesc::UINT8
+                                : format == scenes::TexelFormat::U16 ? OIIO::TypeDesc::UINT16
+                                                                     : OIIO::TypeDesc::FLOAT;
+    const int nc = std::min(spec.nchannels, 3);
+    scenes::Texture t = scenes::Texture::make(path, uint32_t(spec.width), uint32_t(spec.height), format, "RGB");
+    const size_t npix = size_t(t.width) * t.height, cb = scenes::texel_format_bytes(format);
+    if (!in->read_image(0, 0, 0, nc, type, t.data.data()))
         throw scenes::SceneError(path + ": cannot decode the environment map (" + in->geterror() + ")");
-    scenes::Texture t;
-    t.name = path;
-    t.width = uint32_t(spec.width);
-    t.height = uint32_t(spec.height);
-    t.rgb.resize(size_t(t.width) * t.height * 3);
-    for (size_t p = 0; p < size_t(t.width) * t.height; ++p)
+    // Fewer than three channels: spread in place from the back, grey (or the last
+    // channel) filling the missing ones, as the float reader did.
+    if (nc < 3)
+        for (size_t p = npix; p-- > 0;)
+            for (int c = 2; c >= 0; --c)
+                std::memmove(&t.data[(p * 3 + size_t(c)) * cb], &t.data[(p * size_t(nc) + size_t(std::min(c, nc - 1))) * cb], cb);
+    for (size_t p = 0; p < npix; ++p)
         for (int c = 0; c < 3; ++c) {
-            const float v = px[p * nc + size_t(std::min(c, nc - 1))];
+            float v = 0;
+            const uint8_t* q = &t.data[(p * 3 + size_t(c)) * cb];
+            if (format == scenes::TexelFormat::F32) {
+                std::memcpy(&v, q, 4);
+            } else if (format == scenes::TexelFormat::F16) {
+                uint16_t h;
+                std::memcpy(&h, q, 2);
+                v = scenes::half_to_float(h);
+            } else {
+                continue;  // integers are never negative or non-finite
+            }
             if (!std::isfinite(v) || v < 0)
                 throw scenes::SceneError(path + ": environment map has a negative or non-finite pixel at (" +
                                          std::to_string(p % t.width) + ", " + std::to_string(p / t.width) + ")");
-            t.rgb[p * 3 + size_t(c)] = v;
         }
     return t;
 }

@@ -9,6 +9,7 @@
 #include "renderer/rng.h"
 #include "renderer/scene_geometry.h"
 #include "renderer/spawn.h"
+#include "renderer/texture.h"
 #include "scenes/scene.h"
 
 namespace renderer {
@@ -46,6 +47,12 @@ struct IntegratorSettings {
     /// lights and the BSDF (default), lights only, or BSDF sampling only. Diffuse surfaces
     /// keep light sampling (or -H).
     enum class Strategy : uint8_t { Mis, Light, Bsdf } strategy = Strategy::Mis;
+    /// --texture-filter: how textures are read (renderer/texture.h).
+    TextureFilter texture_filter = TextureFilter::Trilinear;
+    /// The camera's per-pixel spread for texture footprints: Camera::pixel_spread(width,
+    /// height, spp) of the camera that renders. Left unset, trilinear reads the full image
+    /// (a point footprint), as bilinear does.
+    PixelSpread pixel_spread;
 };
 
 class Integrator {

@@ -9,16 +9,24 @@ namespace renderer {
 
 Vec3f texel(const scenes::Scene& scene, uint32_t texture, const Vec2f& uv) {
     if (texture == scenes::kNoTexture || texture >= scene.textures.size()) return Vec3f(1.0f);
-    const scenes::Texture& t = scene.textures[texture];
-    if (t.width == 0 || t.height == 0 || t.rgb.size() < size_t(t.width) * t.height * 3) return Vec3f(1.0f);
-    auto wrap = [](float x) { return x - std::floor(x); };
-    float fu = wrap(uv.x), fv = wrap(uv.y);
-    if (!std::isfinite(fu)) fu = 0;
-    if (!std::isfinite(fv)) fv = 0;
-    const uint32_t x = std::min(t.width - 1, uint32_t(fu * float(t.width)));
-    const uint32_t y = std::min(t.height - 1, uint32_t(fv * float(t.height)));
-    const float* p = &t.rgb[(size_t(y) * t.width + x) * 3];
-    return {p[0], p[1], p[2]};
+    return lookup(scene.textures[texture], uv, UvFootprint{}, TextureFilter::Nearest).rgb();
+}
+
+Texel4 texel4(const scenes::Scene& scene, uint32_t texture, const Interaction& it) {
+    if (texture == scenes::kNoTexture || texture >= scene.textures.size()) return Texel4{1.0f, 1.0f, 1.0f, 1.0f};
+    return lookup(scene.textures[texture], it.uv, it.duv, it.filter);
+}
+
+void set_texture_footprint(Interaction& it, const PixelSpread& spread, TextureFilter filter, bool camera_ray,
+                           const Vec3f& dir) {
+    it.filter = filter;
+    if (filter != TextureFilter::Trilinear || !spread.valid()) return;
+    Vec3f dpdx, dpdy;
+    if (camera_ray)
+        camera_dpdxy(spread, dir, it.p, it.ng, dpdx, dpdy);
+    else
+        approximate_dpdxy(spread, it.p, it.ng, dpdx, dpdy);
+    it.duv = uv_footprint(it.dpdu, it.dpdv, dpdx, dpdy);
 }
 
 void triangle_point(const Vec3f& p0, const Vec3f& p1, const Vec3f& p2, float u, float v, Vec3f& p,
@@ -66,15 +74,17 @@ Interaction make_interaction(const scenes::Scene& scene, const SceneGeometry& ge
         if (!m.uvs.empty()) {
             const Vec2f a = m.uvs[idx[0]], b = m.uvs[idx[1]], c = m.uvs[idx[2]];
             it.uv = {a.x * w0 + b.x * hit.u + c.x * hit.v, a.y * w0 + b.y * hit.u + c.y * hit.v};
-            if (it.material < scene.materials.size() &&
-                scene.materials[it.material].normal_texture != scenes::kNoTexture) {
+            if (it.material < scene.materials.size() && is_textured(scene.materials[it.material])) {
                 // pbrt-v4 Triangle::InteractionFromIntersection: solve the 2x2 system of
                 // edge vectors against uv differences.
                 const Vec3f e1 = m.positions[idx[1]] - m.positions[idx[0]];
                 const Vec3f e2 = m.positions[idx[2]] - m.positions[idx[0]];
                 const float du1 = b.x - a.x, dv1 = b.y - a.y, du2 = c.x - a.x, dv2 = c.y - a.y;
                 const float det = du1 * dv2 - dv1 * du2;
-                if (std::abs(det) > 1e-12f) it.dpdu = (e1 * dv2 - e2 * dv1) / det;
+                if (std::abs(det) > 1e-12f) {
+                    it.dpdu = (e1 * dv2 - e2 * dv1) / det;
+                    it.dpdv = (e2 * du1 - e1 * du2) / det;
+                }
             }
         }
     }

@@ -3,6 +3,7 @@
 
 #include "accel/ray.h"
 #include "renderer/scene_geometry.h"
+#include "renderer/texture.h"
 #include "scenes/scene.h"
 
 namespace renderer {
@@ -19,16 +20,43 @@ struct Interaction {
     Vec3f ng;       ///< unit geometric normal (triangle winding / sphere outward)
     Vec3f ns;       ///< unit shading normal: interpolated file normals, else ng
     Vec2f uv;       ///< texture coordinates if the mesh stores them
-    /// d p / d u of the triangle's texture mapping, only for materials with a normal map
-    /// (their tangent frame); zero otherwise.
-    Vec3f dpdu{0.0f};
+    /// d p / d u and d p / d v of the triangle's texture mapping, only for textured
+    /// materials (a normal map's tangent frame; the texture footprint); zero otherwise.
+    Vec3f dpdu{0.0f}, dpdv{0.0f};
+    /// The pixel's footprint in uv and how to filter with it (set_texture_footprint);
+    /// untextured hits keep the default, which no lookup reads.
+    UvFootprint duv;
+    TextureFilter filter = TextureFilter::Nearest;
     uint32_t material = 0;
     float t = 0;
     bool sphere = false;  ///< analytic sphere (emits on both sides)
 };
 
-/// Texture value at uv (nearest texel, wrapping); white for kNoTexture.
+/// Texture value at uv (nearest texel, wrapping); white for kNoTexture. For points with
+/// no footprint (a point sampled on an emitter).
 Vec3f texel(const scenes::Scene& scene, uint32_t texture, const Vec2f& uv);
+
+/// Texture channels R, G, B, A at a hit, filtered by its footprint (it.filter, it.duv);
+/// white for kNoTexture.
+Texel4 texel4(const scenes::Scene& scene, uint32_t texture, const Interaction& it);
+inline Vec3f texel(const scenes::Scene& scene, uint32_t texture, const Interaction& it) {
+    if (texture == scenes::kNoTexture) return Vec3f(1.0f);
+    return texel4(scene, texture, it).rgb();
+}
+
+/// Does material m read any texture?
+inline bool is_textured(const scenes::Material& m) {
+    return m.albedo_texture != scenes::kNoTexture || m.emission_texture != scenes::kNoTexture ||
+           m.metallic_roughness_texture != scenes::kNoTexture || m.normal_texture != scenes::kNoTexture ||
+           m.transmission_texture != scenes::kNoTexture;
+}
+
+/// Sets it.duv and it.filter for a hit on a textured triangle. `camera_ray`: the hit was
+/// found by the camera ray with direction `dir` (its differentials are transferred
+/// exactly); later hits use the approximate footprint (renderer/texture.h). Without a
+/// valid spread the footprint stays a point (level 0).
+void set_texture_footprint(Interaction& it, const PixelSpread& spread, TextureFilter filter, bool camera_ray,
+                           const Vec3f& dir);
 
 /// Hit point rebuilt from the barycentrics of triangle (p0, p1, p2), with its error
 /// bound: pbrt-v4 Triangle::InteractionFromIntersection, p = b0 p0 + b1 p1 + b2 p2 and

@@ -77,7 +77,7 @@ Vec3f LightSet::emitted(const Interaction& it, const Vec3f& wo) const {
     // its shading normal, the side sample() draws (Tri::n below). Spheres: both sides.
     const bool two_sided = model_ == LightModel::Course || m.double_sided || it.sphere;
     if (!two_sided && accel::dot(it.ns, wo) <= 0) return Vec3f(0.0f);
-    return m.emission * texel(scene, m.emission_texture, it.uv);
+    return m.emission * texel(scene, m.emission_texture, it);
 }
 
 LightSet::LightSet(const scenes::Scene& scene, LightModel model, std::vector<std::string>& notes)

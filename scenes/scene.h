@@ -3,7 +3,9 @@
 // scenes/gltf) depend on this header and nothing else of scenes/.
 #pragma once
 
+#include <cstddef>
 #include <cstdint>
+#include <cstring>
 #include <optional>
 #include <stdexcept>
 #include <string>
@@ -20,12 +22,100 @@ using accel::Vec3f;
 
 inline constexpr uint32_t kNoTexture = 0xFFFFFFFFu;
 
-/// 8-bit or float RGB(A) texture, decoded to linear float RGB at load time
-/// (base colour and emissive textures are sRGB-decoded by the loader).
+/// IEEE binary16 bits to float (exact).
+inline float half_to_float(uint16_t h) {
+    const uint32_t sign = uint32_t(h & 0x8000u) << 16, e = (h >> 10) & 0x1Fu, m = h & 0x3FFu;
+    uint32_t bits;
+    if (e == 0) {
+        const float v = float(m) * 5.9604644775390625e-8f;  // subnormal: m * 2^-24
+        return sign ? -v : v;
+    }
+    if (e == 31) bits = sign | 0x7F800000u | (m << 13);
+    else bits = sign | ((e + 112u) << 23) | (m << 13);
+    float f;
+    std::memcpy(&f, &bits, 4);
+    return f;
+}
+
+/// Float to IEEE binary16 bits, rounding to nearest even; overflow gives infinity.
+inline uint16_t float_to_half(float f) {
+    uint32_t x;
+    std::memcpy(&x, &f, 4);
+    const uint16_t sign = uint16_t((x >> 16) & 0x8000u);
+    x &= 0x7FFFFFFFu;
+    if (x >= 0x7F800000u) return uint16_t(sign | 0x7C00u | (x > 0x7F800000u ? 0x200u : 0u));
+    if (x >= 0x477FF000u) return uint16_t(sign | 0x7C00u);
+    if (x < 0x38800000u) {  // below 2^-14: a subnormal half, in units of 2^-24
+        float v;
+        std::memcpy(&v, &x, 4);
+        return uint16_t(sign | uint16_t(v * 16777216.0f + 0.5f));
+    }
+    const uint32_t r = x + 0xFFFu + ((x >> 13) & 1u);
+    return uint16_t(sign | uint16_t((r - 0x38000000u) >> 13));
+}
+
+/// How a texture's texels are stored: at the source's precision, never wider. 8- and
+/// 16-bit images stay integers (unorm), EXR halves stay half (raw IEEE binary16 bits),
+/// float sources stay float.
+enum class TexelFormat : uint8_t { U8, U16, F16, F32 };
+
+inline constexpr size_t texel_format_bytes(TexelFormat f) {
+    return f == TexelFormat::U8 ? 1 : f == TexelFormat::F32 ? 4 : 2;
+}
+
+/// An image at its source's precision, holding only the channels a material reads, with
+/// its MIP pyramid (renderer/texture.h filters it). Row 0 is at the top of each level.
 struct Texture {
     std::string name;
-    uint32_t width = 0, height = 0;
-    std::vector<float> rgb;  ///< width*height*3 linear values, row 0 at the top
+    uint32_t width = 0, height = 0;  ///< level 0
+    TexelFormat format = TexelFormat::F32;
+    uint8_t channels = 0;  ///< stored per texel, interleaved
+    /// slot[c]: which stored channel holds source channel c (R, G, B, A); -1 = not stored
+    /// (read as 0, alpha as 1). Stored channels keep the source's order.
+    int8_t slot[4] = {-1, -1, -1, -1};
+    /// The stored R, G, B channels are sRGB-encoded 8-bit values, decoded on lookup (base
+    /// colour and emissive); alpha and data textures are linear.
+    bool srgb = false;
+    struct Level {
+        uint32_t width = 0, height = 0;
+        uint64_t offset = 0;  ///< bytes into `data`
+    };
+    /// levels[0] is width x height; the rest halve it down to 1x1 (empty: no texels).
+    std::vector<Level> levels;
+    std::vector<uint8_t> data;  ///< every level, one after another
+
+    size_t texel_bytes() const { return size_t(channels) * texel_format_bytes(format); }
+    bool empty() const { return levels.empty() || channels == 0; }
+    const uint8_t* texel(uint32_t level, uint32_t x, uint32_t y) const {
+        const Level& l = levels[level];
+        return data.data() + l.offset + (size_t(y) * l.width + x) * texel_bytes();
+    }
+
+    /// One level of `channels` channels (named by `source`, e.g. "RGB", "GB"), no
+    /// pyramid: allocates the texels, zeroed. `source` lists source channels in order.
+    static Texture make(std::string name, uint32_t w, uint32_t h, TexelFormat format,
+                        const char* source = "RGB") {
+        Texture t;
+        t.name = std::move(name);
+        t.width = w;
+        t.height = h;
+        t.format = format;
+        for (const char* c = source; *c; ++c) {
+            const int i = *c == 'R' ? 0 : *c == 'G' ? 1 : *c == 'B' ? 2 : *c == 'A' ? 3 : -1;
+            if (i < 0 || t.channels >= 4) throw std::invalid_argument("Texture::make: bad channel list");
+            t.slot[i] = int8_t(t.channels++);
+        }
+        t.levels.push_back(Level{w, h, 0});
+        t.data.assign(size_t(w) * h * t.texel_bytes(), 0);
+        return t;
+    }
+    /// A float RGB image of w*h*3 linear values (environment maps, tests).
+    static Texture from_rgb(std::string name, uint32_t w, uint32_t h, const std::vector<float>& rgb) {
+        Texture t = make(std::move(name), w, h, TexelFormat::F32, "RGB");
+        if (rgb.size() != size_t(w) * h * 3) throw std::invalid_argument("Texture::from_rgb: size mismatch");
+        if (!rgb.empty()) std::memcpy(t.data.data(), rgb.data(), rgb.size() * sizeof(float));
+        return t;
+    }
 };
 
 /// Which BSDF a material uses (renderer/bsdf/). Plain data: the parameters below that

@@ -1,5 +1,8 @@
 #include "renderer/bsdf/bsdf.h"
 
+#include <algorithm>
+#include <cmath>
+
 #include "renderer/interaction.h"
 
 namespace renderer::bsdf {
@@ -8,7 +11,7 @@ Bsdf make_bsdf(const scenes::Scene& scene, const scenes::Material& m, const Inte
     using scenes::BsdfKind;
     switch (m.bsdf) {
         case BsdfKind::Diffuse:
-            return Bsdf(Lambert{m.albedo * texel(scene, m.albedo_texture, it.uv)});
+            return Bsdf(Lambert{m.albedo * texel(scene, m.albedo_texture, it)});
         case BsdfKind::Mirror:
             return Bsdf(Mirror{m.reflectance});
         case BsdfKind::Glass:
@@ -16,15 +19,15 @@ Bsdf make_bsdf(const scenes::Scene& scene, const scenes::Material& m, const Inte
         case BsdfKind::Microfacet:
             return Bsdf(RoughConductor{Beckmann{std::max(1e-3f, m.alpha)}, m.eta, m.k});
         case BsdfKind::MetallicRoughness: {
-            const Vec3f base = m.albedo * texel(scene, m.albedo_texture, it.uv);
+            const Vec3f base = m.albedo * texel(scene, m.albedo_texture, it);
             float metallic = m.metallic, roughness = m.roughness, transmission = m.transmission;
             if (m.metallic_roughness_texture != scenes::kNoTexture) {
-                const Vec3f mr = texel(scene, m.metallic_roughness_texture, it.uv);
-                roughness *= mr.y;
-                metallic *= mr.z;
+                const Texel4 mr = texel4(scene, m.metallic_roughness_texture, it);
+                roughness *= mr.g;
+                metallic *= mr.b;
             }
             if (m.transmission_texture != scenes::kNoTexture)
-                transmission *= texel(scene, m.transmission_texture, it.uv).x;
+                transmission *= texel4(scene, m.transmission_texture, it).r;
             return Bsdf(MetalRough::make(base, std::clamp(metallic, 0.0f, 1.0f), std::clamp(roughness, 0.0f, 1.0f),
                                          std::clamp(transmission, 0.0f, 1.0f), m.ior, front));
         }
@@ -34,8 +37,11 @@ Bsdf make_bsdf(const scenes::Scene& scene, const scenes::Material& m, const Inte
 
 Vec3f mapped_normal(const scenes::Scene& scene, const scenes::Material& m, const Interaction& it) {
     if (m.normal_texture == scenes::kNoTexture || !(accel::dot(it.dpdu, it.dpdu) > 0)) return it.ns;
-    const Vec3f tex = texel(scene, m.normal_texture, it.uv);
-    const Vec3f tn{(2.0f * tex.x - 1.0f) * m.normal_scale, (2.0f * tex.y - 1.0f) * m.normal_scale, 2.0f * tex.z - 1.0f};
+    // Only X and Y are stored (a unit normal's Z is implied; filtering shortens X and Y,
+    // which the implied Z turns into a flatter normal, as a wider footprint should).
+    const Texel4 tex = texel4(scene, m.normal_texture, it);
+    const float nx = 2.0f * tex.r - 1.0f, ny = 2.0f * tex.g - 1.0f;
+    const Vec3f tn{nx * m.normal_scale, ny * m.normal_scale, std::sqrt(std::max(0.0f, 1.0f - nx * nx - ny * ny))};
     Vec3f t = it.dpdu - it.ns * accel::dot(it.ns, it.dpdu);
     const float tl = accel::length(t);
     if (!(tl > 0)) return it.ns;
@@ -54,7 +60,7 @@ Vec3f aov_albedo(const scenes::Scene& scene, const scenes::Material& m, const In
         case BsdfKind::Mirror: return m.reflectance;
         case BsdfKind::Glass: return m.transmittance;
         case BsdfKind::Microfacet: return fresnel_conductor(1.0f, m.eta, m.k);
-        default: return m.albedo * texel(scene, m.albedo_texture, it.uv);
+        default: return m.albedo * texel(scene, m.albedo_texture, it);
     }
 }
 

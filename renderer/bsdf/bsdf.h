@@ -50,9 +50,10 @@ private:
 Bsdf make_bsdf(const scenes::Scene& scene, const scenes::Material& m, const Interaction& it, bool front);
 
 /// The shading normal `it.ns` perturbed by the material's tangent-space normal map
-/// (glTF normalTexture: RGB in [0,1] -> [-1,1], x and y scaled by normal_scale, tangent
-/// from the uv mapping, bitangent = n x t). Returns it.ns when there is no map or no
-/// tangent, or when the result would face away from the geometric normal.
+/// (glTF normalTexture: RG in [0,1] -> [-1,1], z = sqrt(1 - x^2 - y^2), x and y scaled
+/// by normal_scale, tangent from the uv mapping, bitangent = n x t). Returns it.ns when
+/// there is no map or no tangent, or when the result would face away from the geometric
+/// normal.
 Vec3f mapped_normal(const scenes::Scene& scene, const scenes::Material& m, const Interaction& it);
 
 /// What the albedo AOV reports for a material (its diffuse colour, or its tint).

@@ -15,7 +15,7 @@ namespace {
 /// material says it does both.
 /// Base colour: albedo times its texture.
 Vec3f reflectance_of(const scenes::Scene& scene, const scenes::Material& m, const Interaction& it) {
-    return m.albedo * texel(scene, m.albedo_texture, it.uv);
+    return m.albedo * texel(scene, m.albedo_texture, it);
 }
 
 Vec3f reflectance(const scenes::Scene& scene, const Interaction& it) {
@@ -64,7 +64,16 @@ PathIntegrator::PathIntegrator(const scenes::Scene& scene, const SceneGeometry& 
     const accel::Bounds3f b = scene.bounds();
     scale_ = b.empty() ? 1.0f : accel::max_component(b.diagonal());
     if (s_.name == "direct") s_.max_depth = std::min(s_.max_depth, 1);
-    for (const scenes::Material& m : scene.materials) unlit_ |= m.unlit;
+    for (const scenes::Material& m : scene.materials) {
+        unlit_ |= m.unlit;
+        textured_ |= is_textured(m);
+    }
+}
+
+void PathIntegrator::footprint(Interaction& it, bool camera, const Vec3f& dir) const {
+    if (!textured_ || it.material >= scene_.materials.size() || !is_textured(scene_.materials[it.material]))
+        return;
+    set_texture_footprint(it, s_.pixel_spread, s_.texture_filter, camera, dir);
 }
 
 bool PathIntegrator::counts(int bounce) const {
@@ -79,6 +88,7 @@ Vec3f PathIntegrator::li(const accel::Ray& camera_ray, SampleContext& ctx) const
     if (!ctx.accel.intersect(camera_ray, hit, ctx.stats))
         return counts(0) ? lights_.environment(accel::normalize(camera_ray.dir)) : Vec3f(0.0f);
     Interaction it = make_interaction(scene_, geometry_, camera_ray, hit);
+    if (textured_) footprint(it, true, accel::normalize(camera_ray.dir));
     ctx.aov.normal = it.ns;
     ctx.aov.depth = it.t;
     ctx.aov.albedo = reflectance(scene_, it);
@@ -134,6 +144,7 @@ Vec3f PathIntegrator::li(const accel::Ray& camera_ray, SampleContext& ctx) const
         const accel::Ray ray = spawn_ray(it.p, it.p_error, it.ng, wi, scale_, s_.offset);
         if (!ctx.accel.intersect(ray, hit, ctx.stats)) break;  // environment: counted by direct()
         it = make_interaction(scene_, geometry_, ray, hit);
+        if (textured_) footprint(it, false, wi);
         wo = -wi;
         // Emission found by a bounce ray is not added (LightSet::emitted): under
         // --lights=mesh direct() counted it at the previous vertex; under course it is
@@ -201,6 +212,7 @@ bool PathIntegrator::scatter(const scenes::Material& m, int bounce, Interaction&
         return false;
     }
     it = make_interaction(scene_, geometry_, ray, hit);
+    if (textured_) footprint(it, false, wi);
     wo = -wi;
     // Emission reached through a delta lobe is not reachable by light sampling: count it
     // here, at the path length of the previous vertex's direct light. Through a non-delta
@@ -275,8 +287,11 @@ Vec3f PathIntegrator::direct_hemisphere(const Interaction& it, const Vec3f& albe
         const accel::Ray ray = spawn_ray(it.p, it.p_error, it.ng, wi, scale_, s_.offset);
         accel::Hit hit;
         Vec3f Le;
-        if (ctx.accel.intersect(ray, hit, ctx.stats))
-            Le = lights_.emitted(make_interaction(scene_, geometry_, ray, hit), -wi);
+        if (ctx.accel.intersect(ray, hit, ctx.stats)) {
+            Interaction e = make_interaction(scene_, geometry_, ray, hit);
+            if (textured_) footprint(e, false, wi);
+            Le = lights_.emitted(e, -wi);
+        }
         else
             Le = lights_.environment(wi);
         sum += Le * f * (local.z / kUniformHemispherePdf);

@@ -42,6 +42,11 @@ private:
     float scale_;
     /// Does any material use KHR_materials_unlit? Scenes without one skip its tests.
     bool unlit_ = false;
+    /// Does any material read a texture? Untextured scenes compute no footprint.
+    bool textured_ = false;
+    /// The texture footprint of a hit, for textured materials only. `camera`: found by
+    /// the camera ray of direction `dir`.
+    void footprint(Interaction& it, bool camera, const Vec3f& dir) const;
 };
 
 }  // namespace renderer

@@ -14,6 +14,7 @@
 #include <map>
 #include <set>
 #include <sstream>
+#include <tuple>
 #include <utility>
 
 #include <tiny_gltf.h>
@@ -24,7 +25,7 @@
 namespace scenes {
 namespace {
 
-using gltf_detail::decode_srgb_texture;
+using gltf_detail::decode_texture;
 
 /// Upper bound on vertices + indices summed over all mesh instances. Instancing lets a
 /// small file describe a huge scene; past this it is treated as hostile, not as a scene.
@@ -387,7 +388,9 @@ private:
     UvTransform texture_transform(const tinygltf::TextureInfo& ti, const std::string& desc,
                                   int& texcoord) const;
     int texture_image(int ti, const std::string& user) const;
-    uint32_t decoded_texture(int ii, const std::string& user, bool srgb = true);
+    /// Image `ii` decoded for a slot that reads `channels` (see decode_texture); sRGB
+    /// colour for base colour and emissive, linear data otherwise.
+    uint32_t decoded_texture(int ii, const std::string& user, const char* channels = "RGBA", bool srgb = true);
     void read_pbr(const tinygltf::Material& g, const std::string& mdesc, Material& out, int& uv_set);
 
     std::string name_;
@@ -398,8 +401,11 @@ private:
     std::map<int, uint32_t> materials_;  // glTF material (-1 = default) -> scene material
     std::vector<int> material_uv_set_;   // per scene material, -1 = no texture used
     std::vector<UvTransform> material_uv_xform_;  // per scene material
-    std::map<int, uint32_t> textures_;   // glTF image -> scene texture
-    std::map<int, uint32_t> linear_textures_;  // glTF image -> scene texture, not sRGB-decoded
+    // (glTF image, channels read, sRGB) -> scene texture: an image two slots read the
+    // same way is decoded once.
+    std::map<std::tuple<int, std::string, bool>, uint32_t> textures_;
+    std::set<int> missing_data_images_;  // data maps whose file is missing (noted once)
+    std::set<int> used_images_;          // images a modelled slot asked for
     std::set<std::string> ignored_material_features_;
     uint64_t elements_ = 0;
     uint64_t decoded_elements_ = 0;
@@ -764,10 +770,11 @@ int Loader::texture_image(int ti, const std::string& user) const {
     return t.source;
 }
 
-uint32_t Loader::decoded_texture(int ii, const std::string& user, bool srgb) {
-    auto& cache = srgb ? textures_ : linear_textures_;
-    auto found = cache.find(ii);
-    if (found != cache.end()) return found->second;
+uint32_t Loader::decoded_texture(int ii, const std::string& user, const char* channels, bool srgb) {
+    used_images_.insert(ii);
+    const auto key = std::make_tuple(ii, std::string(channels), srgb);
+    auto found = textures_.find(key);
+    if (found != textures_.end()) return found->second;
     const tinygltf::Image& im = m_.images[size_t(ii)];
     const unsigned char* bytes = nullptr;
     size_t size = 0;
@@ -784,17 +791,17 @@ uint32_t Loader::decoded_texture(int ii, const std::string& user, bool srgb) {
             // As Blender and glTF viewers do: the material keeps its factor alone.
             scene_.warnings.push_back(name_ + ": " + user + ": " + image_desc(ii) +
                                       ": file not found or unreadable; rendered without it");
-            return textures_[ii] = kNoTexture;
+            return textures_[key] = kNoTexture;
         }
         fail(user + ": " + image_desc(ii) + " has no data");
     }
     Texture tex;
     std::string why;
-    if (!decode_srgb_texture(bytes, size, tex, why, srgb)) fail(user + ": " + image_desc(ii) + ": " + why);
+    if (!decode_texture(bytes, size, channels, srgb, tex, why)) fail(user + ": " + image_desc(ii) + ": " + why);
     tex.name = !im.name.empty() ? im.name : (!im.uri.empty() && !tinygltf::IsDataURI(im.uri) ? im.uri : "image " + std::to_string(ii));
     uint32_t idx = uint32_t(scene_.textures.size());
     scene_.textures.push_back(std::move(tex));
-    cache[ii] = idx;
+    textures_[key] = idx;
     return idx;
 }
 
@@ -911,7 +918,7 @@ void Loader::read_pbr(const tinygltf::Material& g, const std::string& mdesc, Mat
     };
     out.metallic = factor(pbr.metallicFactor, "metallicFactor");
     out.roughness = factor(pbr.roughnessFactor, "roughnessFactor");
-    auto data_texture = [&](const tinygltf::TextureInfo& ti, const char* slot) {
+    auto data_texture = [&](const tinygltf::TextureInfo& ti, const char* slot, const char* channels) {
         if (ti.texCoord < 0) fail(mdesc + ": negative texCoord");
         const int img = texture_image(ti.index, mdesc + " " + slot);
         if (uv_set < 0) uv_set = ti.texCoord;
@@ -922,21 +929,21 @@ void Loader::read_pbr(const tinygltf::Material& g, const std::string& mdesc, Mat
         // occlusion-roughness-metallic image); a missing base colour stays an error.
         const tinygltf::Image& im = m_.images[size_t(img)];
         if (im.bufferView < 0 && im.image.empty() && !im.uri.empty() && !tinygltf::IsDataURI(im.uri)) {
-            if (!linear_textures_.count(img))
+            used_images_.insert(img);
+            if (missing_data_images_.insert(img).second)
                 note(mdesc + ": " + slot + " " + image_desc(img) + " not found; using the factors alone");
-            linear_textures_[img] = kNoTexture;
             return kNoTexture;
         }
-        return decoded_texture(img, mdesc + " " + slot, false);
+        return decoded_texture(img, mdesc + " " + slot, channels, false);
     };
     if (pbr.metallicRoughnessTexture.index >= 0)
-        out.metallic_roughness_texture = data_texture(pbr.metallicRoughnessTexture, "metallicRoughnessTexture");
+        out.metallic_roughness_texture = data_texture(pbr.metallicRoughnessTexture, "metallicRoughnessTexture", "GB");
     if (g.normalTexture.index >= 0) {
         if (g.normalTexture.texCoord < 0) fail(mdesc + ": negative texCoord");
         tinygltf::TextureInfo ti;
         ti.index = g.normalTexture.index;
         ti.texCoord = g.normalTexture.texCoord;
-        out.normal_texture = data_texture(ti, "normalTexture");
+        out.normal_texture = data_texture(ti, "normalTexture", "RG");
         if (!std::isfinite(g.normalTexture.scale)) fail(mdesc + ": normalTexture.scale is not finite");
         out.normal_scale = float(g.normalTexture.scale);
     }
@@ -951,7 +958,7 @@ void Loader::read_pbr(const tinygltf::Material& g, const std::string& mdesc, Mat
             ti.index = t.Has("index") && t.Get("index").IsInt() ? t.Get("index").GetNumberAsInt() : -1;
             ti.texCoord = t.Has("texCoord") && t.Get("texCoord").IsInt() ? t.Get("texCoord").GetNumberAsInt() : 0;
             if (ti.index < 0) fail(mdesc + ": transmissionTexture has no index");
-            out.transmission_texture = data_texture(ti, "transmissionTexture");
+            out.transmission_texture = data_texture(ti, "transmissionTexture", "R");
         }
     }
     ext = g.extensions.find("KHR_materials_ior");
@@ -1234,8 +1241,7 @@ void Loader::run() {
     // Images nobody needed and that could not be read: say so, once each.
     for (size_t i = 0; i < m_.images.size(); ++i) {
         const tinygltf::Image& im = m_.images[i];
-        if (im.bufferView < 0 && im.image.empty() && !im.uri.empty() && !textures_.count(int(i)) &&
-            !linear_textures_.count(int(i)))
+        if (im.bufferView < 0 && im.image.empty() && !im.uri.empty() && !used_images_.count(int(i)))
             note(image_desc(int(i)) + " not found; not needed (we do not model the texture slots that use it), ignored");
     }
     if (!ignored_material_features_.empty()) {

@@ -5,6 +5,7 @@
 #include <cmath>
 #include <cstring>
 #include <limits>
+#include <vector>
 
 #include <tiny_gltf.h>
 
@@ -15,10 +16,6 @@ uint32_t be32(const unsigned char* p) {
     return (uint32_t(p[0]) << 24) | (uint32_t(p[1]) << 16) | (uint32_t(p[2]) << 8) | p[3];
 }
 uint32_t be16(const unsigned char* p) { return (uint32_t(p[0]) << 8) | p[1]; }
-
-float srgb_to_linear(float c) {
-    return c <= 0.04045f ? c / 12.92f : std::pow((c + 0.055f) / 1.055f, 2.4f);
-}
 
 const std::array<float, 256>& srgb8_table() {
     static const std::array<float, 256> table = [] {
@@ -83,8 +80,133 @@ bool peek_image_size(const unsigned char* b, size_t n, uint32_t& w, uint32_t& h,
     return false;
 }
 
-bool decode_srgb_texture(const unsigned char* bytes, size_t size, Texture& out,
-                         std::string& why, bool srgb) {
+float srgb_to_linear(float c) {
+    return c <= 0.04045f ? c / 12.92f : std::pow((c + 0.055f) / 1.055f, 2.4f);
+}
+
+namespace {
+
+/// Linear value to the nearest 8-bit sRGB code, through a 16-bit table: its step,
+/// 1/65535 in linear, is at most 0.05 of an 8-bit code where the curve is steepest (the
+/// 12.92 slope near black), so the table rounds as the exact curve does but for ties.
+const std::vector<uint8_t>& linear_to_srgb8_table() {
+    static const std::vector<uint8_t> table = [] {
+        std::vector<uint8_t> t(65536);
+        for (size_t i = 0; i < t.size(); ++i) {
+            const float l = float(i) / 65535.0f;
+            const float s = l <= 0.0031308f ? 12.92f * l : 1.055f * std::pow(l, 1.0f / 2.4f) - 0.055f;
+            t[i] = uint8_t(std::clamp(s * 255.0f + 0.5f, 0.0f, 255.0f));
+        }
+        return t;
+    }();
+    return table;
+}
+
+/// Level sizes down to 1x1 and one buffer for all of them: allocated once, so building
+/// the pyramid never holds two copies of level 0.
+void lay_out_levels(Texture& t) {
+    t.levels.clear();
+    uint32_t w = t.width, h = t.height;
+    uint64_t offset = 0;
+    for (;;) {
+        t.levels.push_back(Texture::Level{w, h, offset});
+        offset += uint64_t(w) * h * t.texel_bytes();
+        if (w == 1 && h == 1) break;
+        w = std::max(1u, w / 2);
+        h = std::max(1u, h / 2);
+    }
+    t.data.assign(size_t(offset), 0);
+}
+
+/// Fills levels 1.. from level 0 (Williams 1983: each level the 2x2 box of the one above).
+void fill_levels(Texture& t) {
+    const size_t nc = t.channels, cb = texel_format_bytes(t.format);
+    // Stored channels that hold sRGB-encoded colour: all but a stored alpha.
+    const size_t ncolour = t.srgb ? (t.slot[3] >= 0 ? nc - 1 : nc) : 0;
+    const auto& lut = srgb8_table();
+    const auto& enc = linear_to_srgb8_table();
+    auto load = [&](const uint8_t* p, size_t c) -> float {
+        switch (t.format) {
+            case TexelFormat::U8: return c < ncolour ? lut[p[c]] : float(p[c]) / 255.0f;
+            case TexelFormat::U16: {
+                uint16_t v;
+                std::memcpy(&v, p + 2 * c, 2);
+                return float(v) / 65535.0f;
+            }
+            case TexelFormat::F16: {
+                uint16_t v;
+                std::memcpy(&v, p + 2 * c, 2);
+                return half_to_float(v);
+            }
+            case TexelFormat::F32: {
+                float v;
+                std::memcpy(&v, p + 4 * c, 4);
+                return v;
+            }
+        }
+        return 0.0f;
+    };
+    auto store = [&](uint8_t* p, size_t c, float v) {
+        switch (t.format) {
+            case TexelFormat::U8:
+                p[c] = c < ncolour ? enc[size_t(std::clamp(v, 0.0f, 1.0f) * 65535.0f + 0.5f)]
+                                   : uint8_t(std::clamp(v * 255.0f + 0.5f, 0.0f, 255.0f));
+                break;
+            case TexelFormat::U16: {
+                const uint16_t u = uint16_t(std::clamp(v * 65535.0f + 0.5f, 0.0f, 65535.0f));
+                std::memcpy(p + 2 * c, &u, 2);
+                break;
+            }
+            case TexelFormat::F16: {
+                const uint16_t u = float_to_half(v);
+                std::memcpy(p + 2 * c, &u, 2);
+                break;
+            }
+            case TexelFormat::F32: std::memcpy(p + 4 * c, &v, 4); break;
+        }
+    };
+    (void)cb;
+    // Each level averages the unrounded values of the one above (kept as floats while
+    // the next is built), so every level is within half a code of the exact average:
+    // rounding once per level, not once per level above it.
+    std::vector<float> above, here;
+    for (size_t l = 1; l < t.levels.size(); ++l) {
+        const Texture::Level& src = t.levels[l - 1];
+        const Texture::Level& dst = t.levels[l];
+        here.assign(size_t(dst.width) * dst.height * nc, 0.0f);
+        auto value = [&](uint32_t x, uint32_t y, size_t ch) {
+            return above.empty() ? load(t.texel(uint32_t(l - 1), x, y), ch) : above[(size_t(y) * src.width + x) * nc + ch];
+        };
+        for (uint32_t y = 0; y < dst.height; ++y) {
+            const uint32_t y0 = std::min(src.height - 1, 2 * y), y1 = std::min(src.height - 1, 2 * y + 1);
+            for (uint32_t x = 0; x < dst.width; ++x) {
+                const uint32_t x0 = std::min(src.width - 1, 2 * x), x1 = std::min(src.width - 1, 2 * x + 1);
+                uint8_t* o = t.data.data() + dst.offset + (size_t(y) * dst.width + x) * t.texel_bytes();
+                for (size_t ch = 0; ch < nc; ++ch) {
+                    const float v = 0.25f * (value(x0, y0, ch) + value(x1, y0, ch) + value(x0, y1, ch) + value(x1, y1, ch));
+                    here[(size_t(y) * dst.width + x) * nc + ch] = v;
+                    store(o, ch, v);
+                }
+            }
+        }
+        std::swap(above, here);
+    }
+}
+
+}  // namespace
+
+void build_mip_pyramid(Texture& t) {
+    if (t.empty() || t.width == 0 || t.height == 0) return;
+    std::vector<uint8_t> level0 = std::move(t.data);
+    const size_t bytes0 = size_t(t.width) * t.height * t.texel_bytes();
+    lay_out_levels(t);
+    std::memcpy(t.data.data(), level0.data(), std::min(bytes0, level0.size()));
+    level0 = {};
+    fill_levels(t);
+}
+
+bool decode_texture(const unsigned char* bytes, size_t size, const char* channels, bool srgb,
+                    Texture& out, std::string& why) {
     uint32_t w = 0, h = 0;
     if (!peek_image_size(bytes, size, w, h, why)) return false;
     if (w == 0 || h == 0 || uint64_t(w) * h > kMaxImagePixels) {
@@ -109,27 +231,52 @@ bool decode_srgb_texture(const unsigned char* bytes, size_t size, Texture& out,
         why = "decoder returned an unexpected pixel layout";
         return false;
     }
-    out.width = uint32_t(img.width);
-    out.height = uint32_t(img.height);
-    size_t npix = size_t(out.width) * out.height;
-    out.rgb.resize(npix * 3);
-    if (img.bits == 8) {
-        const auto& lut = srgb8_table();
-        for (size_t p = 0; p < npix; ++p)
-            for (int c = 0; c < 3; ++c) {
-                const uint8_t v = img.image[p * 4 + size_t(c)];
-                out.rgb[p * 3 + size_t(c)] = srgb ? lut[v] : float(v) / 255.0f;
-            }
-    } else {
-        for (size_t p = 0; p < npix; ++p)
-            for (int c = 0; c < 3; ++c) {
-                size_t o = (p * 4 + size_t(c)) * 2;
-                uint16_t v;
-                std::memcpy(&v, &img.image[o], 2);  // stb returns native-endian uint16
-                const float x = float(v) / 65535.0f;
-                out.rgb[p * 3 + size_t(c)] = srgb ? srgb_to_linear(x) : x;
-            }
+    const size_t npix = size_t(img.width) * size_t(img.height);
+    const size_t cb = size_t(img.bits / 8);
+    auto sample = [&](size_t p, size_t c) -> uint32_t {
+        if (cb == 1) return img.image[p * 4 + c];
+        uint16_t v;
+        std::memcpy(&v, &img.image[(p * 4 + c) * 2], 2);  // stb returns native-endian uint16
+        return v;
+    };
+    // Alpha is worth its byte only where some pixel is not opaque.
+    std::string list;
+    for (const char* c = channels; *c; ++c) {
+        if (*c == 'A') {
+            const uint32_t opaque = cb == 1 ? 255u : 65535u;
+            bool all_opaque = true;
+            for (size_t p = 0; p < npix && all_opaque; ++p) all_opaque = sample(p, 3) == opaque;
+            if (all_opaque) continue;
+        }
+        list += *c;
     }
+    out = Texture::make(out.name, uint32_t(img.width), uint32_t(img.height),
+                        cb == 1 ? TexelFormat::U8 : TexelFormat::U16, list.c_str());
+    // sRGB stays encoded at 8 bits (decoded on lookup through a 256-entry table); a
+    // 16-bit sRGB image is decoded here, as a table of 65536 floats per lookup would not
+    // pay for the rare 16-bit colour texture.
+    out.srgb = srgb && cb == 1;
+    lay_out_levels(out);
+    int src[4];
+    for (int c = 0; c < 4; ++c)
+        if (out.slot[c] >= 0) src[out.slot[c]] = c;
+    uint8_t* dst = out.data.data();
+    for (size_t p = 0; p < npix; ++p)
+        for (size_t k = 0; k < out.channels; ++k) {
+            const size_t c = size_t(src[k]);
+            if (cb == 1) {
+                *dst++ = uint8_t(sample(p, c));
+            } else {
+                uint32_t v = sample(p, c);
+                if (srgb && c < 3)
+                    v = uint32_t(std::clamp(srgb_to_linear(float(v) / 65535.0f) * 65535.0f + 0.5f, 0.0f, 65535.0f));
+                const uint16_t u = uint16_t(v);
+                std::memcpy(dst, &u, 2);
+                dst += 2;
+            }
+        }
+    img.image = {};
+    fill_levels(out);
     return true;
 }
 

@@ -1,4 +1,5 @@
-// Image decoding for the glTF loader: PNG/JPEG bytes -> linear float RGB Texture.
+// Image decoding for the glTF loader: PNG/JPEG bytes -> a Texture at the image's own
+// precision, with its MIP pyramid.
 #pragma once
 
 #include <cstddef>
@@ -9,9 +10,10 @@
 
 namespace scenes::gltf_detail {
 
-/// Largest decoded image we accept (pixels). A float RGB texture costs 12 bytes per
-/// pixel, so this bounds one texture at ~800 MB; a header claiming more is bad input,
-/// and refusing it before stb allocates keeps hostile files from exhausting memory.
+/// Largest decoded image we accept (pixels). Decoding goes through an RGBA buffer of up
+/// to 8 bytes per pixel, so this bounds one image at ~512 MB while it decodes; a header
+/// claiming more is bad input, and refusing it before stb allocates keeps hostile files
+/// from exhausting memory.
 inline constexpr uint64_t kMaxImagePixels = uint64_t(1) << 26;
 
 /// Reads width/height from a PNG or JPEG header without decoding. Returns false (and
@@ -19,11 +21,24 @@ inline constexpr uint64_t kMaxImagePixels = uint64_t(1) << 26;
 bool peek_image_size(const unsigned char* bytes, size_t size, uint32_t& width,
                      uint32_t& height, std::string& why);
 
-/// Decodes PNG/JPEG bytes (8 or 16 bit) and converts sRGB to linear float RGB; alpha is
-/// dropped. Returns false with `why` on failure. Never throws for bad data. With
-/// `srgb` false the values stay as stored (data textures: metallic-roughness, normal,
-/// transmission).
-bool decode_srgb_texture(const unsigned char* bytes, size_t size, Texture& out,
-                         std::string& why, bool srgb = true);
+/// Decodes PNG/JPEG bytes (8 or 16 bit) into a Texture at the source's precision (U8 or
+/// U16) holding only the source channels `channels` names (e.g. "RGB", "GB", "R"; an
+/// "A" is kept only when some pixel is not opaque), then builds its MIP pyramid. With
+/// `srgb` the R, G, B values stay sRGB-encoded and are decoded on lookup (base colour,
+/// emissive); otherwise they are linear (metallic-roughness, normal, transmission).
+/// Returns false with `why` on failure. Never throws for bad data.
+bool decode_texture(const unsigned char* bytes, size_t size, const char* channels, bool srgb,
+                    Texture& out, std::string& why);
+
+/// sRGB-encoded value (0..1) to linear, the IEC 61966-2-1 curve.
+float srgb_to_linear(float c);
+
+/// Appends the MIP pyramid to a texture that holds level 0 alone: each level halves the
+/// one above (at least 1 texel) with a 2x2 box, averaged in linear values (sRGB texels
+/// decoded, averaged, re-encoded), as in Williams, "Pyramidal parametrics" (SIGGRAPH
+/// 1983). An odd size drops the last row or column of the finer level: glTF's textures
+/// are powers of two in practice, and the alternative (pbrt-v4 resamples to a power of
+/// two first) would double the memory of a large odd-sized image while it is built.
+void build_mip_pyramid(Texture& t);
 
 }  // namespace scenes::gltf_detail

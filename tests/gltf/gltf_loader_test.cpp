@@ -9,6 +9,7 @@
 #include <string>
 #include <vector>
 
+#include "renderer/texture.h"
 #include "scenes/gltf/gltf.h"
 
 namespace {
@@ -295,15 +296,22 @@ TEST(GltfPrimitives, QuantizedPositionsAndTexcoords) {
     expect_vec(sc.meshes[1].positions[1], {0, 4, 0});
     expect_vec(sc.meshes[1].positions[2], {0, 0, 5});
     EXPECT_TRUE(sc.meshes[1].uvs.empty()) << "default material is untextured";
-    // Texture: 2x2, sRGB-decoded, row 0 at the top.
+    // Texture: 2x2, kept as 8-bit sRGB (RGB: the PNG has no alpha), decoded on lookup,
+    // row 0 at the top, with its pyramid down to 1x1.
     ASSERT_EQ(sc.textures.size(), 1u);
     const scenes::Texture& t = sc.textures[0];
     EXPECT_EQ(t.width, 2u);
     EXPECT_EQ(t.height, 2u);
-    ASSERT_EQ(t.rgb.size(), 12u);
-    EXPECT_FLOAT_EQ(t.rgb[0], 1.0f);
-    EXPECT_FLOAT_EQ(t.rgb[1], 0.0f);
-    EXPECT_NEAR(t.rgb[9], 0.2158605f, 1e-5f);  // sRGB 128 -> linear
+    EXPECT_EQ(t.format, scenes::TexelFormat::U8);
+    EXPECT_TRUE(t.srgb);
+    EXPECT_EQ(t.channels, 3);
+    ASSERT_EQ(t.levels.size(), 2u);
+    EXPECT_EQ(t.data.size(), size_t(4 + 1) * 3);
+    EXPECT_FLOAT_EQ(renderer::fetch(t, 0, 0, 0).r, 1.0f);
+    EXPECT_FLOAT_EQ(renderer::fetch(t, 0, 0, 0).g, 0.0f);
+    EXPECT_NEAR(renderer::fetch(t, 0, 1, 1).r, 0.2158605f, 1e-5f);  // sRGB 128 -> linear
+    // The 1x1 level averages light, not codes: (1 + 0 + 0 + 0.2159) / 4 in red, re-encoded.
+    EXPECT_NEAR(renderer::fetch(t, 1, 0, 0).r, (1.0f + 0.2158605f) / 4, 0.01f);
 }
 
 TEST(GltfPrimitives, TexcoordsOnlyWhenTextured) {

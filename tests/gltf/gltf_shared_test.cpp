@@ -82,8 +82,14 @@ TEST(GltfShared, Suzanne) {
     auto [w, h] = png_size(shared("Suzanne/Suzanne_BaseColor.png"));
     EXPECT_EQ(t.width, w);
     EXPECT_EQ(t.height, h);
-    EXPECT_EQ(t.rgb.size(), size_t(w) * h * 3);
-    for (float v : t.rgb) ASSERT_TRUE(v >= 0.0f && v <= 1.0f);
+    EXPECT_EQ(t.format, scenes::TexelFormat::U8) << "8-bit PNG stays 8-bit";
+    EXPECT_TRUE(t.srgb);
+    ASSERT_FALSE(t.levels.empty());
+    EXPECT_EQ(t.levels.back().width, 1u);
+    EXPECT_EQ(t.levels.back().height, 1u);
+    const scenes::Texture& mr = s.textures[m.metallic_roughness_texture];
+    EXPECT_EQ(mr.channels, 2) << "metallic-roughness keeps G and B only";
+    EXPECT_FALSE(mr.srgb);
     EXPECT_TRUE(s.lights.empty());
     EXPECT_FALSE(s.camera.has_value());
     EXPECT_FALSE(has_note(s, "metallic-roughness")) << "modelled, not ignored";
@@ -111,8 +117,13 @@ TEST(GltfShared, DamagedHelmet) {
     for (const auto& t : s.textures) {
         EXPECT_EQ(t.width, 2048u);
         EXPECT_EQ(t.height, 2048u);
-        EXPECT_EQ(t.rgb.size(), size_t(t.width) * t.height * 3);
+        EXPECT_EQ(t.format, scenes::TexelFormat::U8);
+        EXPECT_EQ(t.levels.size(), 12u) << "2048 down to 1";
     }
+    EXPECT_EQ(s.textures[m.metallic_roughness_texture].channels, 2);
+    EXPECT_EQ(s.textures[m.normal_texture].channels, 2) << "normal XY";
+    EXPECT_GE(s.textures[m.emission_texture].channels, 3);
+    EXPECT_TRUE(s.textures[m.emission_texture].srgb);
     // The node rotates +90 deg about X, (x,y,z) -> (x,-z,y). POSITION accessor bounds in
     // the file: min (-0.94746, -1.18716, -0.90099), max (0.94250, 0.81285, 0.90097).
     scenes::Bounds3f b = s.bounds();

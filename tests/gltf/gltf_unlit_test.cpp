@@ -94,10 +94,7 @@ TEST(GltfUnlit, CameraSeesTheBaseColourWhateverTheLights) {
         if (variant == 3) is.hemisphere = true;
         if (variant == 4) {
             // A 1x1 texture: the mesh has no uvs, so every point reads that texel.
-            scenes::Texture t;
-            t.width = t.height = 1;
-            t.rgb = {0.5f, 1.0f, 0.25f};
-            w.scene.textures.push_back(t);
+            w.scene.textures.push_back(scenes::Texture::from_rgb("t", 1, 1, {0.5f, 1.0f, 0.25f}));
             w.scene.materials[material_named(w.scene, "unlit")].albedo_texture = uint32_t(w.scene.textures.size() - 1);
             expected = kBase * Vec3f{0.5f, 1.0f, 0.25f};
         }

@@ -25,11 +25,7 @@ namespace {
 Estimate li(const World& w, const accel::Ray& r, int n) { return estimate(*w.integrator, *w.accel, r, n, 17); }
 
 scenes::Texture constant_image(uint32_t w, uint32_t h, float v) {
-    scenes::Texture t;
-    t.width = w;
-    t.height = h;
-    t.rgb.assign(size_t(w) * h * 3, v);
-    return t;
+    return scenes::Texture::from_rgb("constant", w, h, std::vector<float>(size_t(w) * h * 3, v));
 }
 
 /// A dim sky with a small bright sun (a 2x2-texel disc ~1.4 deg across at 256x128).
@@ -37,7 +33,10 @@ scenes::Texture sun_image() {
     scenes::Texture t = constant_image(256, 128, 0.2f);
     for (uint32_t y = 30; y < 32; ++y)
         for (uint32_t x = 80; x < 82; ++x)
-            for (int c = 0; c < 3; ++c) t.rgb[(size_t(y) * 256 + x) * 3 + size_t(c)] = 50000.0f;
+            for (int c = 0; c < 3; ++c) {
+                const float sun = 50000.0f;
+                std::memcpy(&t.data[((size_t(y) * 256 + x) * 3 + size_t(c)) * 4], &sun, 4);
+            }
     return t;
 }
 
@@ -85,7 +84,8 @@ TEST(Environment, ConstantMapOnDiffuseConvexObjectReadsAlbedoTimesE) {
 }
 
 TEST(Environment, PdfMatchesSamplesAndIntegratesToOne) {
-    const EnvironmentMap map(sun_image(), Vec3f(0, 0, 1));
+    const scenes::Texture sun = sun_image();
+    const EnvironmentMap map(sun, Vec3f(0, 0, 1));
     // Midpoint rule over (theta, phi), 4x4 points per texel: d omega = sin theta dtheta dphi.
     double integral = 0;
     const int nt = 128 * 4, np = 256 * 4;
@@ -110,7 +110,8 @@ TEST(Environment, ImportanceSamplingBeatsUniformOnASun) {
     // Irradiance at an upward-facing point: E = integral of L cos over the hemisphere.
     // Both estimators are unbiased; importance sampling must have the lower variance at
     // the same number of samples, and the two means agree.
-    const EnvironmentMap map(sun_image(), Vec3f(0, 0, 1));
+    const scenes::Texture sun = sun_image();
+    const EnvironmentMap map(sun, Vec3f(0, 0, 1));
     const int n = 100000;
     auto run = [&](bool importance) {
         Rng rng(importance ? 1 : 2, 3);

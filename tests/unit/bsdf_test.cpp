@@ -311,15 +311,13 @@ TEST(RoughTransmission, GeneralisedReciprocity) {
 }
 
 TEST(NormalMap, TangentSpaceConvention) {
-    // A flat map (0.5, 0.5, 1) keeps the normal; +x in the map leans toward dp/du (made
-    // orthogonal to the normal).
+    // A flat map (0.5, 0.5) keeps the normal; +x in the map leans toward dp/du (made
+    // orthogonal to the normal). Only X and Y are read: Z is the unit normal's.
     scenes::Scene scene;
-    scenes::Texture tex;
-    tex.width = tex.height = 1;
-    tex.rgb = {0.5f, 0.5f, 1.0f};
-    scene.textures.push_back(tex);
-    tex.rgb = {0.75f, 0.5f, 0.75f};  // (0.5, 0, 0.5): 45 degrees toward the tangent
-    scene.textures.push_back(tex);
+    scene.textures.push_back(scenes::Texture::from_rgb("flat", 1, 1, {0.5f, 0.5f, 0.0f}));
+    // x = sqrt(1/2), y = 0, so z = sqrt(1/2): 45 degrees toward the tangent.
+    const float x = 0.5f * (std::sqrt(0.5f) + 1.0f);
+    scene.textures.push_back(scenes::Texture::from_rgb("lean", 1, 1, {x, 0.5f, 0.0f}));
     scenes::Material m;
     m.normal_texture = 0;
     renderer::Interaction it;

@@ -1,0 +1,254 @@
+#include "renderer/texture.h"
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <cstring>
+#include <stdexcept>
+
+namespace renderer {
+
+TextureFilter parse_texture_filter(const std::string& name) {
+    if (name == "nearest") return TextureFilter::Nearest;
+    if (name == "bilinear") return TextureFilter::Bilinear;
+    if (name == "trilinear") return TextureFilter::Trilinear;
+    throw std::invalid_argument("unknown texture filter '" + name + "' (expected nearest, bilinear or trilinear)");
+}
+
+const char* texture_filter_name(TextureFilter f) {
+    switch (f) {
+        case TextureFilter::Nearest: return "nearest";
+        case TextureFilter::Bilinear: return "bilinear";
+        case TextureFilter::Trilinear: return "trilinear";
+    }
+    return "?";
+}
+
+namespace {
+// Built before main: lookups read it without a guard.
+const std::array<float, 256> kSrgb8 = [] {
+    std::array<float, 256> t{};
+    for (int i = 0; i < 256; ++i) {
+        const float c = float(i) / 255.0f;
+        t[size_t(i)] = c <= 0.04045f ? c / 12.92f : std::pow((c + 0.055f) / 1.055f, 2.4f);
+    }
+    return t;
+}();
+}  // namespace
+
+const float* srgb8_to_linear_table() { return kSrgb8.data(); }
+
+namespace {
+
+using scenes::Texture;
+using scenes::TexelFormat;
+
+/// uv wrapped into [0, 1]; a non-finite coordinate reads the origin.
+inline float wrap01(float x) {
+    const float f = x - std::floor(x);
+    return std::isfinite(f) ? f : 0.0f;
+}
+
+/// Stored channels of one texel, weighted, added to acc. `ncolour` stored channels are
+/// sRGB-encoded (decoded before filtering: filtering averages light, not codes).
+template <TexelFormat F>
+inline void add_texel(const uint8_t* p, int nc, int ncolour, float w, float* acc) {
+    for (int c = 0; c < nc; ++c) {
+        float v;
+        if constexpr (F == TexelFormat::U8) {
+            v = c < ncolour ? kSrgb8[p[c]] : float(p[c]) * (1.0f / 255.0f);
+        } else if constexpr (F == TexelFormat::U16) {
+            uint16_t u;
+            std::memcpy(&u, p + 2 * c, 2);
+            v = float(u) * (1.0f / 65535.0f);
+        } else if constexpr (F == TexelFormat::F16) {
+            uint16_t u;
+            std::memcpy(&u, p + 2 * c, 2);
+            v = scenes::half_to_float(u);
+        } else {
+            std::memcpy(&v, p + 4 * c, 4);
+        }
+        acc[c] += w * v;
+    }
+}
+
+template <TexelFormat F>
+struct Sampler {
+    const Texture& t;
+    int nc, ncolour;
+    size_t tb;
+
+    explicit Sampler(const Texture& tex)
+        : t(tex), nc(tex.channels), ncolour(tex.srgb ? (tex.slot[3] >= 0 ? tex.channels - 1 : tex.channels) : 0),
+          tb(tex.texel_bytes()) {}
+
+    /// The texel uv falls in, as the renderer always read textures: x = floor(u w).
+    void nearest(uint32_t level, float u, float v, float w, float* acc) const {
+        const Texture::Level& l = t.levels[level];
+        const uint32_t x = std::min(l.width - 1, uint32_t(u * float(l.width)));
+        const uint32_t y = std::min(l.height - 1, uint32_t(v * float(l.height)));
+        add_texel<F>(t.data.data() + l.offset + (size_t(y) * l.width + x) * tb, nc, ncolour, w, acc);
+    }
+
+    /// Bilinear between the four texel centres around uv, wrapping at the edges.
+    void bilinear(uint32_t level, float u, float v, float w, float* acc) const {
+        const Texture::Level& l = t.levels[level];
+        const float x = u * float(l.width) - 0.5f, y = v * float(l.height) - 0.5f;
+        const float x0f = std::floor(x), y0f = std::floor(y);
+        const float fx = x - x0f, fy = y - y0f;
+        // u in [0, 1] puts x0 in [-1, width - 1].
+        int x0 = int(x0f), y0 = int(y0f);
+        if (x0 < 0) x0 += int(l.width);
+        if (y0 < 0) y0 += int(l.height);
+        x0 = std::min(x0, int(l.width) - 1);
+        y0 = std::min(y0, int(l.height) - 1);
+        const int x1 = x0 + 1 == int(l.width) ? 0 : x0 + 1;
+        const int y1 = y0 + 1 == int(l.height) ? 0 : y0 + 1;
+        const uint8_t* base = t.data.data() + l.offset;
+        const size_t row = size_t(l.width) * tb;
+        const uint8_t* r0 = base + size_t(y0) * row;
+        const uint8_t* r1 = base + size_t(y1) * row;
+        add_texel<F>(r0 + size_t(x0) * tb, nc, ncolour, w * (1 - fx) * (1 - fy), acc);
+        add_texel<F>(r0 + size_t(x1) * tb, nc, ncolour, w * fx * (1 - fy), acc);
+        add_texel<F>(r1 + size_t(x0) * tb, nc, ncolour, w * (1 - fx) * fy, acc);
+        add_texel<F>(r1 + size_t(x1) * tb, nc, ncolour, w * fx * fy, acc);
+    }
+
+    void filter(float u, float v, const UvFootprint& duv, TextureFilter f, float* acc) const {
+        switch (f) {
+            case TextureFilter::Nearest: nearest(0, u, v, 1.0f, acc); return;
+            case TextureFilter::Bilinear: bilinear(0, u, v, 1.0f, acc); return;
+            case TextureFilter::Trilinear: {
+                const float level = mip_level(t, duv);
+                const uint32_t l0 = uint32_t(level);
+                const float d = level - float(l0);
+                if (d <= 0.0f || l0 + 1 >= t.levels.size()) {
+                    bilinear(std::min<uint32_t>(l0, uint32_t(t.levels.size() - 1)), u, v, 1.0f, acc);
+                } else {
+                    bilinear(l0, u, v, 1.0f - d, acc);
+                    bilinear(l0 + 1, u, v, d, acc);
+                }
+                return;
+            }
+        }
+    }
+};
+
+}  // namespace
+
+float mip_level(const Texture& t, const UvFootprint& duv) {
+    if (t.levels.size() <= 1) return 0.0f;
+    const float w = float(t.width), h = float(t.height);
+    const float ax = duv.dudx * w, ay = duv.dvdx * h, bx = duv.dudy * w, by = duv.dvdy * h;
+    const float rho2 = std::max(ax * ax + ay * ay, bx * bx + by * by);
+    const float top = float(t.levels.size() - 1);
+    if (!(rho2 > 1.0f)) return 0.0f;  // magnified (or no footprint): the full image
+    if (!std::isfinite(rho2)) return top;
+    return std::min(top, 0.5f * std::log2(rho2));
+}
+
+namespace {
+Texel4 to_source_channels(const Texture& t, const float* acc) {
+    Texel4 out;
+    if (t.slot[0] >= 0) out.r = acc[t.slot[0]];
+    if (t.slot[1] >= 0) out.g = acc[t.slot[1]];
+    if (t.slot[2] >= 0) out.b = acc[t.slot[2]];
+    if (t.slot[3] >= 0) out.a = acc[t.slot[3]];
+    return out;
+}
+}  // namespace
+
+Texel4 fetch(const Texture& t, uint32_t level, uint32_t x, uint32_t y) {
+    float acc[4] = {0, 0, 0, 0};
+    const uint8_t* p = t.texel(level, x, y);
+    const int ncolour = t.srgb ? (t.slot[3] >= 0 ? t.channels - 1 : t.channels) : 0;
+    switch (t.format) {
+        case TexelFormat::U8: add_texel<TexelFormat::U8>(p, t.channels, ncolour, 1.0f, acc); break;
+        case TexelFormat::U16: add_texel<TexelFormat::U16>(p, t.channels, ncolour, 1.0f, acc); break;
+        case TexelFormat::F16: add_texel<TexelFormat::F16>(p, t.channels, ncolour, 1.0f, acc); break;
+        case TexelFormat::F32: add_texel<TexelFormat::F32>(p, t.channels, ncolour, 1.0f, acc); break;
+    }
+    return to_source_channels(t, acc);
+}
+
+Texel4 lookup(const Texture& t, const Vec2f& uv, const UvFootprint& duv, TextureFilter filter) {
+    if (t.empty()) return Texel4{1.0f, 1.0f, 1.0f, 1.0f};
+    const float u = wrap01(uv.x), v = wrap01(uv.y);
+    float acc[4] = {0, 0, 0, 0};
+    switch (t.format) {
+        case TexelFormat::U8: Sampler<TexelFormat::U8>(t).filter(u, v, duv, filter, acc); break;
+        case TexelFormat::U16: Sampler<TexelFormat::U16>(t).filter(u, v, duv, filter, acc); break;
+        case TexelFormat::F16: Sampler<TexelFormat::F16>(t).filter(u, v, duv, filter, acc); break;
+        case TexelFormat::F32: Sampler<TexelFormat::F32>(t).filter(u, v, duv, filter, acc); break;
+    }
+    return to_source_channels(t, acc);
+}
+
+namespace {
+/// The change of the hit point on the plane (p, n) when the ray's direction D (any
+/// length, from the camera) changes by dD, to first order (Igehy 1999, eq. 10 with a zero
+/// offset differential): t dD minus its part along D that leaves the plane.
+Vec3f transfer(const Vec3f& D, float t, const Vec3f& dD, const Vec3f& n) {
+    const float dn = accel::dot(D, n);
+    if (!(std::abs(dn) > 0.0f)) return Vec3f(0.0f);
+    return (dD - D * (accel::dot(dD, n) / dn)) * t;
+}
+}  // namespace
+
+void camera_dpdxy(const PixelSpread& s, const Vec3f& dir, const Vec3f& p, const Vec3f& n, Vec3f& dpdx,
+                  Vec3f& dpdy) {
+    // The camera's unnormalised direction has unit length along `forward`; t scales it
+    // to the hit.
+    const float along = accel::dot(dir, s.forward);
+    if (!(along > 0.0f)) {
+        dpdx = dpdy = Vec3f(0.0f);
+        return;
+    }
+    const Vec3f D = dir / along;
+    const float t = accel::dot(p - s.position, s.forward);
+    dpdx = transfer(D, t, s.right * s.dx, n);
+    dpdy = transfer(D, t, s.up * s.dy, n);
+}
+
+void approximate_dpdxy(const PixelSpread& s, const Vec3f& p, const Vec3f& n, Vec3f& dpdx, Vec3f& dpdy) {
+    const Vec3f to = p - s.position;
+    const float dist = accel::length(to);
+    if (!(dist > 0.0f) || !std::isfinite(dist)) {
+        dpdx = dpdy = Vec3f(0.0f);
+        return;
+    }
+    const Vec3f dir = to / dist;
+    // The camera's axes turned to look at p: right made perpendicular to the new view
+    // direction (pbrt-v4 rotates the camera frame the same way, RotateFromTo).
+    Vec3f ex = s.right - dir * accel::dot(s.right, dir);
+    float len = accel::length(ex);
+    if (!(len > 1e-4f)) {
+        ex = s.up - dir * accel::dot(s.up, dir);
+        len = accel::length(ex);
+        if (!(len > 0.0f)) {
+            dpdx = dpdy = Vec3f(0.0f);
+            return;
+        }
+    }
+    ex = ex / len;
+    const Vec3f ey = accel::cross(dir, ex);
+    dpdx = transfer(dir, dist, ex * s.dx, n);
+    dpdy = transfer(dir, dist, ey * s.dy, n);
+}
+
+UvFootprint uv_footprint(const Vec3f& dpdu, const Vec3f& dpdv, const Vec3f& dpdx, const Vec3f& dpdy) {
+    const float a00 = accel::dot(dpdu, dpdu), a01 = accel::dot(dpdu, dpdv), a11 = accel::dot(dpdv, dpdv);
+    float inv = 1.0f / (a00 * a11 - a01 * a01);
+    if (!std::isfinite(inv)) inv = 0.0f;
+    const float bx0 = accel::dot(dpdu, dpdx), bx1 = accel::dot(dpdv, dpdx);
+    const float by0 = accel::dot(dpdu, dpdy), by1 = accel::dot(dpdv, dpdy);
+    auto clamp = [](float x) { return std::isfinite(x) ? std::clamp(x, -1e8f, 1e8f) : 0.0f; };
+    UvFootprint f;
+    f.dudx = clamp((a11 * bx0 - a01 * bx1) * inv);
+    f.dvdx = clamp((a00 * bx1 - a01 * bx0) * inv);
+    f.dudy = clamp((a11 * by0 - a01 * by1) * inv);
+    f.dvdy = clamp((a00 * by1 - a01 * by0) * inv);
+    return f;
+}
+
+}  // namespace renderer

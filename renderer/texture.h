@@ -1,0 +1,92 @@
+// Texture lookups filtered by the pixel's footprint, and the ray differentials that give
+// that footprint.
+//
+// Filtering follows Williams, "Pyramidal parametrics" (SIGGRAPH 1983): a MIP pyramid built
+// at load time (scenes/gltf/gltf_image.h) and a trilinear lookup whose level is the log2
+// of the footprint's longer side in texels, the length-based rule of the OpenGL
+// specification (3.9.11 in 3.0) rather than pbrt-v4's max-component width: the level then
+// reads 0 at one texel per pixel and 6 at 64, what a user expects a "level" to mean.
+//
+// The footprint comes from ray differentials (Igehy, "Tracing ray differentials",
+// SIGGRAPH 1999) as pbrt-v4 approximates them (Pharr, Jakob, Humphreys, "Physically Based
+// Rendering" 4th ed., 5.2.4 and 10.1.1): exact transfer of the pinhole camera's
+// differentials to a camera ray's hit, and Camera::Approximate_dp_dxy at every later hit
+// (the footprint the camera's pixel would have at that point, seen from the camera), so
+// no differential is carried through the BSDFs. Both shrink with the sample count by
+// max(1/8, 1/sqrt(spp)), as pbrt-v4 does: the pixel's samples already average across the
+// pixel, and a filter a whole pixel wide on top of that would blur.
+#pragma once
+
+#include <cstdint>
+#include <string>
+
+#include "accel/math.h"
+#include "scenes/scene.h"
+
+namespace renderer {
+
+using accel::Vec2f;
+using accel::Vec3f;
+
+/// How textures are read: nearest texel of the full image (no filtering; the renderer's
+/// behaviour before MIP maps), bilinear on the full image, or trilinear on the MIP pyramid
+/// at the ray-differential footprint.
+enum class TextureFilter : uint8_t { Nearest, Bilinear, Trilinear };
+
+/// "nearest" | "bilinear" | "trilinear"; throws std::invalid_argument naming the value.
+TextureFilter parse_texture_filter(const std::string& name);
+const char* texture_filter_name(TextureFilter f);
+
+/// d(u, v)/dx and d(u, v)/dy at a hit: uv units per pixel step. All zero: a point.
+struct UvFootprint {
+    float dudx = 0, dvdx = 0, dudy = 0, dvdy = 0;
+};
+
+/// A texture's source channels R, G, B, A (linear; channels the texture does not store
+/// read 0, alpha 1).
+struct Texel4 {
+    float r = 0, g = 0, b = 0, a = 1;
+    Vec3f rgb() const { return {r, g, b}; }
+};
+
+/// Filtered lookup at uv (wrapping, as glTF's default REPEAT sampler). Nearest and
+/// bilinear read level 0 and ignore `duv`.
+Texel4 lookup(const scenes::Texture& t, const Vec2f& uv, const UvFootprint& duv, TextureFilter filter);
+
+/// One texel of one level, unfiltered (x < that level's width, y < its height).
+Texel4 fetch(const scenes::Texture& t, uint32_t level, uint32_t x, uint32_t y);
+
+/// The continuous MIP level (0 = full resolution) trilinear filtering reads for `duv`,
+/// clamped to the pyramid.
+float mip_level(const scenes::Texture& t, const UvFootprint& duv);
+
+/// 8-bit sRGB code to linear (IEC 61966-2-1), the 256-entry table lookups decode with.
+const float* srgb8_to_linear_table();
+
+/// The camera's per-pixel spread, for footprints (Camera::pixel_spread): the pinhole's
+/// position and frame, and the change of the unnormalised direction (sensor at distance
+/// 1 along `forward`) per pixel step in x and in y, already scaled for the sample count.
+struct PixelSpread {
+    Vec3f position, right, up, forward;
+    float dx = 0, dy = 0;
+    bool valid() const { return dx > 0 && dy > 0; }
+};
+
+/// dp/dx, dp/dy at the point p (plane normal n) hit by the camera ray with normalised
+/// direction dir: Igehy's transfer of a pinhole's direction differentials to the tangent
+/// plane at p (offset differentials are zero at a pinhole; a thin lens is treated as its
+/// pinhole, as its blur dominates any texture filter).
+void camera_dpdxy(const PixelSpread& s, const Vec3f& dir, const Vec3f& p, const Vec3f& n, Vec3f& dpdx,
+                  Vec3f& dpdy);
+
+/// pbrt-v4 Camera::Approximate_dp_dxy: the footprint at p of a camera pixel looking
+/// straight at p from the camera's position, for hits of rays that carry no differentials.
+void approximate_dpdxy(const PixelSpread& s, const Vec3f& p, const Vec3f& n, Vec3f& dpdx, Vec3f& dpdy);
+
+/// uv derivatives from the surface's dp/du, dp/dv and dp/dx, dp/dy: the least-squares
+/// solution of dp/dx = dp/du du/dx + dp/dv dv/dx (pbrt-v4
+/// SurfaceInteraction::ComputeDifferentials), clamped so that a grazing hit gives a wide
+/// but finite footprint.
+UvFootprint uv_footprint(const Vec3f& dpdu, const Vec3f& dpdv, const Vec3f& dpdx, const Vec3f& dpdy);
+
+}  // namespace renderer
