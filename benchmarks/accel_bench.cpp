@@ -39,6 +39,7 @@
 #include "renderer/xcheck.h"
 #include "scenes/load.h"
 #include "tools/cli.h"
+#include "tools/memory/memory.h"
 
 namespace {
 
@@ -540,18 +541,23 @@ void run_study(const Options& o, const bench::MachineProbe& probe, const scenes:
 
 /// Every study of one scene (and the build study, with --build-threads).
 void run_scene(const Options& o, const bench::MachineProbe& probe, const std::string& path, Results& res) {
-    scenes::Scene scene;
-    try {
-        scene = scenes::load_scene(path);
-    } catch (const scenes::SceneError& e) {
-        fail(e.what());
-    }
+    scenes::Scene scene = tools::load_scene_or_exit(path, "accel_bench");
     std::vector<renderer::BackendSpec> specs = backend_specs(o, scene.num_triangles());
     renderer::SceneGeometry geometry(scene);
+    const tools::memory::Stage stage("building the BVHs");
+    const uint64_t failures = tools::memory::failures();
     const std::string name = std::filesystem::path(path).filename().string();
     if (!o.build_threads.empty())
         build_study(name, geometry, specs, o.build_threads, std::max(1, o.build_repeats), o.verbose);
-    const Built built = build_backends(std::move(specs), geometry, o.build_repeats);
+    Built built;
+    try {
+        built = build_backends(std::move(specs), geometry, o.build_repeats);
+    } catch (const accel::AccelError& e) {
+        // A plugin reports its failed allocation as an error of its own.
+        if (tools::memory::failures() != failures) tools::memory::out_of_memory();
+        throw;
+    }
+    tools::memory::set_stage("tracing the rays");
     for (renderer::RayKind kind : o.kinds) run_study(o, probe, scene, name, built, kind, res);
 }
 
@@ -646,7 +652,8 @@ void print_scaling(const Results& res, const Options& o) {
 
 }  // namespace
 
-int main(int argc, char** argv) {
+int main(int argc, char** argv) try {
+    tools::memory::install("accel_bench");
     CLI::App app{"Accelerator benchmark: every backend on the very same camera, shadow and diffuse rays."};
     Options o;
     add_options(app, o);
@@ -664,4 +671,6 @@ int main(int argc, char** argv) {
     if (!o.no_course && !o.quick && std::filesystem::exists(kShared + "cow.dae"))
         course_comparison(kShared + "cow.dae", 800, 600);
     return 0;
+} catch (const std::bad_alloc& e) {
+    tools::memory::out_of_memory(e);
 }

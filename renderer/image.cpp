@@ -3,10 +3,12 @@
 #include <OpenColorIO/OpenColorIO.h>
 #include <OpenImageIO/imageio.h>
 #include <fmt/format.h>
+#include <fcntl.h>
 #include <unistd.h>
 
 #include <algorithm>
 #include <cctype>
+#include <cerrno>
 #include <cmath>
 #include <cstdio>
 #include <cstring>
@@ -84,13 +86,36 @@ void write_image(const std::string& path, const Image& image, const WriteOptions
     if (!out)
         throw std::runtime_error(fmt::format("{}: no image writer for this extension ({})", path,
                                              OIIO::geterror()));
-    bool ok = out->open(tmp.string(), spec) &&
-              out->write_image(OIIO::TypeDesc::FLOAT, data.data()) && out->close();
+    // Whatever ends the write (a full disk, an exception such as std::bad_alloc from the
+    // encoder), the temporary file goes: the target is whole or untouched.
+    bool ok = false;
+    try {
+        ok = out->open(tmp.string(), spec) && out->write_image(OIIO::TypeDesc::FLOAT, data.data()) &&
+             out->close();
+    } catch (...) {
+        out.reset();
+        std::error_code ec;
+        fs::remove(tmp, ec);
+        throw;
+    }
     if (!ok) {
         std::string err = out->geterror();
+        out.reset();
         std::error_code ec;
         fs::remove(tmp, ec);
         throw std::runtime_error(fmt::format("{}: cannot write: {}", path, err));
+    }
+    // The encoder's writes may sit in the page cache; a disk that fills (or a delayed
+    // allocation that fails) shows here, before the rename could put a short file in
+    // place of a good one.
+    if (const int fd = ::open(tmp.c_str(), O_RDONLY); fd < 0 || ::fsync(fd) != 0) {
+        const std::string why = std::strerror(errno);
+        if (fd >= 0) ::close(fd);
+        std::error_code ec;
+        fs::remove(tmp, ec);
+        throw std::runtime_error(fmt::format("{}: cannot write: {}", path, why));
+    } else {
+        ::close(fd);
     }
     std::error_code ec;
     fs::rename(tmp, target, ec);

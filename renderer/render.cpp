@@ -99,8 +99,17 @@ void resolve(const Accumulation& acc, RenderResult& result) {
         }
 }
 
+uint64_t film_bytes(int width, int height, bool resume) {
+    const uint64_t pixels = uint64_t(std::max(0, width)) * uint64_t(std::max(0, height));
+    return pixels * (sizeof(PixelSums) * (resume ? 2 : 1) + sizeof(float) * kNumChannels);
+}
+
 RenderResult render(const Camera& camera, const Integrator& integrator,
                     const accel::Accelerator& accel, const RenderSettings& s) {
+    auto stage = [&](const char* name) {
+        if (s.on_stage) s.on_stage(name);
+    };
+    stage("allocating the film");
     RenderResult result;
     Accumulation& acc = result.sums;
     if (s.resume) {
@@ -122,6 +131,7 @@ RenderResult render(const Camera& camera, const Integrator& integrator,
                                             : s.adaptive_batch > 0 ? s.adaptive_batch : 8);
     const int num_passes = (s.spp + pass_spp - 1) / pass_spp;
 
+    stage("rendering");
     tbb::enumerable_thread_specific<accel::TraceStats> thread_stats;
     Progress progress(s.progress, num_tiles * size_t(num_passes));
     const auto start = Clock::now();
@@ -245,7 +255,9 @@ RenderResult render(const Camera& camera, const Integrator& integrator,
         const double elapsed = std::chrono::duration<double>(now - start).count();
         const double pass_seconds = std::chrono::duration<double>(now - pass_start).count();
         if (pass + 1 < num_passes && s.on_checkpoint && elapsed - last_checkpoint >= s.checkpoint_every) {
+            stage("writing a checkpoint");
             s.on_checkpoint(acc, false);
+            stage("rendering");
             last_checkpoint = elapsed;
         }
         if (pass + 1 < num_passes && s.time_limit > 0 && elapsed + pass_seconds > s.time_limit) {
@@ -253,9 +265,13 @@ RenderResult render(const Camera& camera, const Integrator& integrator,
             break;
         }
     }
-    if (s.on_checkpoint && !s.tiles) s.on_checkpoint(acc, true);
+    if (s.on_checkpoint && !s.tiles) {
+        stage("writing a checkpoint");
+        s.on_checkpoint(acc, true);
+    }
 
     result.seconds = std::chrono::duration<double>(Clock::now() - start).count();
+    stage("resolving the image");
     resolve(acc, result);
     result.partial = stopped.load();
     if (s.progress) {

@@ -94,7 +94,16 @@ struct RenderSettings {
     TileSource* tiles = nullptr;
     /// Set from a signal handler to stop early; finished pixels are kept.
     const std::atomic<bool>* cancel = nullptr;
+    /// Told what render() does next ("allocating the film", "rendering", "writing a
+    /// checkpoint", "resolving the image"), so that a caller can name the step in which
+    /// memory ran out.
+    std::function<void(const char* stage)> on_stage;
 };
+
+/// Bytes of the film render() allocates for a width x height image: the per-pixel sums
+/// (PixelSums), twice when resuming (the checkpoint read and the state continued from
+/// it), and the resolved image (RenderResult::image), which lives beside the sums.
+uint64_t film_bytes(int width, int height, bool resume);
 
 /// Channel layout of RenderResult::image.
 enum Channel : int {

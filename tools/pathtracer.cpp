@@ -15,6 +15,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <optional>
 #include <sstream>
 #include <thread>
 
@@ -31,6 +32,8 @@
 #include "scenes/load.h"
 #include "tools/cli.h"
 #include "tools/distributed/distributed.h"
+#include "tools/memory/memory.h"
+#include "tools/output_check.h"
 
 namespace {
 
@@ -38,6 +41,8 @@ std::atomic<bool> g_cancel{false};
 extern "C" void on_sigint(int) { g_cancel.store(true); }
 
 [[noreturn]] void fail(const std::string& message) { tools::fail("pathtracer", message); }
+
+namespace mem = tools::memory;
 
 /// Every option, as CLI11 fills it; finish_options turns the words into settings.
 struct Options {
@@ -58,6 +63,7 @@ struct Options {
     std::string env_map, camera_file;
     float lens_radius = -1, focal_distance = -1;
     std::string checkpoint, resume;
+    double max_memory_gib = 0;  ///< --max-memory; 0 = this machine's memory
 };
 
 /// --accel: the backends built in, and any plugin:PATH[:OPTIONS] (accel::is_backend_name
@@ -176,6 +182,11 @@ void add_progress_options(CLI::App& app, Options& o) {
         ->check(CLI::Range(1, 4096));
     app.add_option("--pass", o.rs.pass_spp, "Samples per pixel per pass (default: the -a batch, else 8)")
         ->check(CLI::Range(1, 1 << 20));
+    app.add_option("--max-memory", o.max_memory_gib,
+                   "Refuse (exit status 3), before building the BVH, a render whose estimated peak "
+                   "memory exceeds GIB gibibytes (default: this machine's memory and swap)")
+        ->type_name("GIB")
+        ->check(CLI::PositiveNumber);
 }
 
 /// The checks CLI11 cannot make (values that depend on each other), and the words turned
@@ -235,7 +246,8 @@ std::string sibling(const std::string& path, const std::string& suffix, const st
 /// automatically) except those that do not change the samples, and the scene file's bytes.
 std::string fingerprint(const CLI::App& app, const std::string& scene_path, int spp) {
     static const char* kFree[] = {"s", "t", "f", "q", "quiet", "checkpoint", "checkpoint-every",
-                                  "resume", "time-limit", "cost", "scene", "ocio-config", "tile", "pass"};
+                                  "resume", "time-limit", "cost", "scene", "ocio-config", "tile", "pass",
+                                  "max-memory"};
     std::string out, line;
     std::istringstream lines(app.config_to_str(true, false));
     while (std::getline(lines, line)) {
@@ -270,17 +282,26 @@ scenes::Scene load_scene(const Options& o) {
     std::fflush(stderr);
     auto t0 = std::chrono::steady_clock::now();
     scenes::Scene scene;
-    try {
-        scene = scenes::load_scene(o.scene_path);
-    } catch (const scenes::SceneError& e) {
-        std::fprintf(stderr, "\n");
-        fail(e.what());
+    {
+        const mem::Stage stage("loading the scene", true);
+        const uint64_t failures = mem::failures();
+        try {
+            scene = scenes::load_scene(o.scene_path);
+        } catch (const std::bad_alloc& e) {
+            mem::out_of_memory(e);
+        } catch (const scenes::SceneError& e) {
+            // A loader that catches std::bad_alloc reports it as a bad file; it was not.
+            if (mem::failures() != failures) mem::out_of_memory();
+            std::fprintf(stderr, "\n");
+            fail(e.what());
+        }
     }
+    mem::set_stage("loading the scene");
     std::fprintf(stderr, "Done! (%.4f sec)\n",
                  std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
     std::fputs(scenes::scene_summary(scene).c_str(), stderr);
-    for (const std::string& note : scene.notes) std::fprintf(stderr, "[PathTracer] Note: %s\n", note.c_str());
-    for (const std::string& w : scene.warnings) std::fprintf(stderr, "[PathTracer] Warning: %s\n", w.c_str());
+    tools::print_once("[PathTracer] Note: ", scene.notes);
+    tools::print_once("[PathTracer] Warning: ", scene.warnings);
     if (o.strict && !scene.warnings.empty()) fail(scene.warnings.front() + " (--strict)");
     if (scene.num_triangles() == 0 && scene.spheres.empty())
         fail(fmt::format("{}: the scene has no geometry to render", o.scene_path));
@@ -345,7 +366,7 @@ std::unique_ptr<renderer::LightSet> make_lights(const Options& o, const scenes::
         scene, renderer::parse_light_model(o.lights_mode, scene.format), notes);
     std::fprintf(stderr, "[PathTracer] Light semantics: --lights=%s\n", renderer::light_model_name(lights->model()));
     std::fprintf(stderr, "%s\n", lights->summary().c_str());
-    for (const std::string& note : notes) std::fprintf(stderr, "[PathTracer] Note: %s\n", note.c_str());
+    tools::print_once("[PathTracer] Note: ", notes);
     return lights;
 }
 
@@ -395,8 +416,11 @@ void write_main_image(const Options& o, const renderer::RenderResult& result, bo
     wo.ocio_config = o.ocio_config;
     if (result.partial) wo.attributes.push_back({"pathtracer:partial", "1"});
     std::fprintf(stderr, "[PathTracer] Saving to file: %s... ", o.output.c_str());
+    const mem::Stage stage("writing the image", true);
     try {
         renderer::write_image(o.output, result.image, wo);
+    } catch (const std::bad_alloc& e) {
+        mem::out_of_memory(e);
     } catch (const std::exception& e) {
         std::fprintf(stderr, "\n");
         fail(e.what());
@@ -411,6 +435,7 @@ void write_main_image(const Options& o, const renderer::RenderResult& result, bo
 /// Side images: the sample-rate heat map (course name NAME_rate.png) and the cost maps.
 void write_side_images(const Options& o, const renderer::RenderResult& result) {
     const renderer::RenderSettings& rs = o.rs;
+    const mem::Stage stage("writing the side images");
     auto channel = [&](int c) {
         std::vector<float> v(size_t(rs.width) * rs.height);
         for (size_t i = 0; i < v.size(); ++i) v[i] = result.image.pixels[i * result.image.nchannels() + c];
@@ -424,6 +449,8 @@ void write_side_images(const Options& o, const renderer::RenderResult& result) {
         ho.encoding = renderer::Encoding::Display;
         try {
             renderer::write_image(path, renderer::heat_map(v, rs.width, rs.height, 0.0f, hi), ho);
+        } catch (const std::bad_alloc& e) {
+            mem::out_of_memory(e);
         } catch (const std::exception& e) {
             fail(e.what());
         }
@@ -443,9 +470,116 @@ void write_side_images(const Options& o, const renderer::RenderResult& result) {
     }
 }
 
+/// The images and the checkpoint this run will write: each folder must take a new file
+/// and each image's extension must have a writer, before the scene loads. Rank 0 alone
+/// writes, so it alone checks.
+void check_outputs(const Options& o, const dist::World& world) {
+    if (!world.root()) return;
+    std::vector<std::pair<std::string, std::string>> images{{"-f", o.output}};
+    if (o.rs.adaptive_batch > 0) images.push_back({"-a (its sample-rate image)", sibling(o.output, "_rate", ".png")});
+    if (o.cost) {
+        images.push_back({"--cost", sibling(o.output, "_nodes", ".png")});
+        images.push_back({"--cost", sibling(o.output, "_tests", ".png")});
+    }
+    for (const auto& [flag, path] : images)
+        if (const std::string why = tools::check_image_output(flag, path); !why.empty()) fail(why);
+    if (!o.checkpoint.empty())
+        if (const std::string why = tools::check_writable("--checkpoint", o.checkpoint); !why.empty())
+            fail(why);
+}
+
+uint64_t gib_bytes(double gib) { return uint64_t(gib * 1024.0 * 1024.0 * 1024.0); }
+
+/// The film alone, before the scene loads: an image that cannot fit in this machine (its
+/// memory and swap, ulimit -v, the cgroup), or in --max-memory, is refused at once rather
+/// than after the scene has loaded and the BVH is built.
+void check_film(const Options& o) {
+    const uint64_t film = renderer::film_bytes(o.rs.width, o.rs.height, !o.resume.empty());
+    std::string what;
+    uint64_t limit = mem::memory_limit(true, &what);
+    if (o.max_memory_gib > 0 && gib_bytes(o.max_memory_gib) < limit) {
+        limit = gib_bytes(o.max_memory_gib);
+        what = fmt::format("--max-memory {:g}", o.max_memory_gib);
+    }
+    if (film > limit)
+        mem::refuse(fmt::format("the film of -r {} {} needs {} ({} bytes, {} per pixel), more than {} ({})",
+                                o.rs.width, o.rs.height, mem::size_text(film), film,
+                                film / (uint64_t(o.rs.width) * uint64_t(o.rs.height)), mem::size_text(limit), what));
+}
+
+/// The estimate of peak memory, made before the build from what is measured so far (the
+/// resident set once the scene, lights and integrator are in memory, and the loader's
+/// high-water mark) and what is still to come, per primitive and per pixel.
+struct MemoryEstimate {
+    uint64_t loaded = 0, loading_peak = 0, build = 0, kept = 0, film = 0, peak = 0;
+    const char* when = "";  ///< the stage the peak falls in
+};
+
+MemoryEstimate estimate_memory(const Options& o, const renderer::SceneGeometry& geometry) {
+    uint64_t prims = 0;
+    for (const accel::GeometryView& v : geometry.views()) prims += v.num_prims;
+    // Bytes per primitive above the resident set before the build: at the build's peak
+    // (what is kept included), and kept for the render. Measured with /usr/bin/time on
+    // generated meshes of 2M, 5M and 20M triangles (benchmarks/memory_estimate.sh); the
+    // figures for Embree's low and medium qualities, SBVH and plugins are not measured and
+    // lean high.
+    double build = 0, kept = 0;
+    if (o.backend == "embree") {
+        const bool high = o.ao.embree_quality == accel::EmbreeQuality::High;
+        build = high ? 112 : 120;
+        kept = high ? 70 : 80;
+    } else if (o.backend == "naive") {
+        build = kept = 8;
+    } else if (o.backend.rfind("plugin:", 0) == 0) {
+        build = 150;
+        kept = 80;
+    } else {
+        const bool quantized = o.ao.nodes == accel::NodeLayout::Quantized ||
+                               (o.ao.nodes == accel::NodeLayout::Auto && prims >= 4000000);
+        build = quantized ? 88 : 118;
+        kept = quantized ? 45 : 50;
+        if (o.ao.split == accel::BvhSplit::Sbvh) {
+            build *= 2.0;
+            kept *= 1.5;
+        }
+    }
+    MemoryEstimate e;
+    e.loaded = mem::resident_bytes();
+    e.loading_peak = mem::peak_resident_bytes();
+    e.build = uint64_t(build * double(prims));
+    e.kept = uint64_t(kept * double(prims));
+    e.film = renderer::film_bytes(o.rs.width, o.rs.height, !o.resume.empty());
+    const uint64_t during_build = e.loaded + e.build, during_render = e.loaded + e.kept + e.film;
+    e.peak = std::max({e.loading_peak, during_build, during_render});
+    e.when = e.peak == e.loading_peak ? "loading" : e.peak == during_build ? "the build" : "the render";
+    return e;
+}
+
+/// Prints the estimate, and refuses (exit status 3) a render whose estimate exceeds
+/// --max-memory, or by default this machine's memory and swap: a render that would be
+/// killed hours later for want of memory is refused before any work.
+void check_memory(const Options& o, const MemoryEstimate& e) {
+    std::fprintf(stderr,
+                 "[PathTracer] Memory estimate: peak %s during %s (scene and set-up %s measured, "
+                 "loading peak %s, BVH %s while building, %s kept, film %s)\n",
+                 mem::size_text(e.peak).c_str(), e.when, mem::size_text(e.loaded).c_str(),
+                 mem::size_text(e.loading_peak).c_str(), mem::size_text(e.build).c_str(),
+                 mem::size_text(e.kept).c_str(), mem::size_text(e.film).c_str());
+    std::string what;
+    uint64_t limit = mem::memory_limit(false, &what);
+    if (o.max_memory_gib > 0) {
+        limit = gib_bytes(o.max_memory_gib);
+        what = fmt::format("--max-memory {:g}", o.max_memory_gib);
+    }
+    if (e.peak > limit)
+        mem::refuse(fmt::format("the estimated peak of {} is more than {} ({}); refused before the build",
+                                mem::size_text(e.peak), mem::size_text(limit), what));
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
+    mem::install("pathtracer");
     CLI::App app{"Physically based path tracer: diffuse, mirror, glass, microfacet, glTF PBR and unlit materials (CS184 dialect "
                  "COLLADA, glTF 2.0), on our own BVH or on Embree."};
     app.set_help_flag("-h,--help", "Print this help and exit");
@@ -456,7 +590,12 @@ int main(int argc, char** argv) {
     add_progress_options(app, o);
     tools::parse_or_exit(app, argc, argv, "pathtracer");
     const dist::World world = dist::init(argc, argv, "pathtracer");
+    // Out of memory on any rank stops every rank, with status 3.
+    mem::on_exit([](int status) { dist::abort_job(status); });
     finish_options(o, world);
+    // Before any work: what cannot be saved, or cannot fit, is refused now.
+    check_outputs(o, world);
+    check_film(o);
 
     const int threads = o.rs.threads > 0 ? o.rs.threads : int(std::max(1u, std::thread::hardware_concurrency()));
     std::fprintf(stderr, "[PathTracer] Input scene file: %s\n", o.scene_path.c_str());
@@ -465,29 +604,60 @@ int main(int argc, char** argv) {
 
     // Set-up: scene, camera, lights, integrator, accelerator, checkpoints.
     scenes::Scene scene = load_scene(o);
-    const renderer::CameraSetup cam = setup_camera(o, scene);
-    renderer::SceneGeometry geometry(scene);
-    const std::unique_ptr<renderer::LightSet> lights = make_lights(o, scene);
     std::unique_ptr<accel::Accelerator> accel;
     std::unique_ptr<renderer::Integrator> integrator;
+    std::unique_ptr<renderer::LightSet> lights;
+    std::optional<renderer::SceneGeometry> geometry;
+    std::optional<renderer::CameraSetup> cam;
     try {
-        integrator = renderer::make_integrator(o.is, scene, geometry, lights.get());
-        accel = renderer::build_accelerator(o.backend, geometry, o.ao);
+        mem::set_stage("setting up the camera, lights and integrator");
+        cam = setup_camera(o, scene);
+        geometry.emplace(scene);
+        lights = make_lights(o, scene);
+        integrator = renderer::make_integrator(o.is, scene, *geometry, lights.get());
+    } catch (const std::bad_alloc& e) {
+        mem::out_of_memory(e);
     } catch (const accel::AccelError& e) {
         fail(e.what());
     } catch (const std::invalid_argument& e) {
         fail(e.what());
     }
+    check_memory(o, estimate_memory(o, *geometry));
+    {
+        // The build's progress line is left open ("Building BVH... "), so an error
+        // starts a line of its own.
+        const mem::Stage stage("building the BVH", true);
+        const uint64_t failures = mem::failures();
+        try {
+            accel = renderer::build_accelerator(o.backend, *geometry, o.ao);
+        } catch (const std::bad_alloc& e) {
+            mem::out_of_memory(e);
+        } catch (const accel::AccelError& e) {
+            // A plugin reports its failed allocation as an error of its own.
+            if (mem::failures() != failures) mem::out_of_memory();
+            fail(e.what());
+        } catch (const std::invalid_argument& e) {
+            fail(e.what());
+        }
+    }
     renderer::Accumulation resumed;
-    setup_checkpoints(o, fingerprint(app, o.scene_path, o.rs.spp), resumed);
+    try {
+        mem::set_stage("reading the checkpoint");
+        setup_checkpoints(o, fingerprint(app, o.scene_path, o.rs.spp), resumed);
+    } catch (const std::bad_alloc& e) {
+        mem::out_of_memory(e);
+    }
 
     // Run.
     std::signal(SIGINT, on_sigint);
     renderer::RenderResult result;
     const std::unique_ptr<renderer::TileSource> tiles = dist::make_tile_source(world);
     o.rs.tiles = tiles.get();
+    o.rs.on_stage = [](const char* stage) { mem::set_stage(stage); };
     try {
-        result = renderer::render(cam.camera, *integrator, *accel, o.rs);
+        result = renderer::render(cam->camera, *integrator, *accel, o.rs);
+    } catch (const std::bad_alloc& e) {
+        mem::out_of_memory(e);
     } catch (const std::invalid_argument& e) {
         fail(e.what());
     }
@@ -496,6 +666,10 @@ int main(int argc, char** argv) {
         return 0;
     }
     std::signal(SIGINT, SIG_DFL);
+    // The sums are in the checkpoint already and the image is resolved: freeing them
+    // before the files are encoded lowers the peak by 144 bytes per pixel.
+    std::vector<renderer::PixelSums>().swap(result.sums.pixels);
+    std::vector<renderer::PixelSums>().swap(resumed.pixels);
 
     // Output.
     print_statistics(result, accel->info());

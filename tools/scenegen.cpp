@@ -191,12 +191,18 @@ inline std::string to_glb(const Document& doc) {
 inline void write_glb(const std::string& path, const Document& doc) {
     const std::string bytes = to_glb(doc);
     const std::string tmp = path + ".tmp";
-    {
-        std::ofstream f(tmp, std::ios::binary);
-        f.write(bytes.data(), std::streamsize(bytes.size()));
-        if (!f) throw std::runtime_error(path + ": write failed");
+    // A full disk shows at the write or at the close; either way the temporary goes.
+    std::ofstream f(tmp, std::ios::binary);
+    f.write(bytes.data(), std::streamsize(bytes.size()));
+    f.close();
+    if (!f) {
+        std::remove(tmp.c_str());
+        throw std::runtime_error(path + ": write failed (the disk may be full)");
     }
-    if (std::rename(tmp.c_str(), path.c_str()) != 0) throw std::runtime_error(path + ": rename failed");
+    if (std::rename(tmp.c_str(), path.c_str()) != 0) {
+        std::remove(tmp.c_str());
+        throw std::runtime_error(path + ": rename failed");
+    }
 }
 
 // ---------------------------------------------------------------------------------------
@@ -410,6 +416,9 @@ inline Document generate(const std::string& kind, uint64_t triangles, uint64_t s
 
 #include <chrono>
 
+#include "tools/cli.h"
+#include "tools/memory/memory.h"
+
 int main(int argc, char** argv) {
     CLI::App app{"Procedural triangle meshes for benchmarks, written as binary glTF (.glb)."};
     std::string kind = "sphere", out;
@@ -418,15 +427,26 @@ int main(int argc, char** argv) {
     app.add_option("--triangles,-n", triangles, "At least this many triangles after instancing (default 100000)");
     app.add_option("--seed", seed, "Random seed (default 1)");
     app.add_option("-o,--output", out, "Output .glb file")->required();
+    tools::memory::install("scenegen");
     CLI11_PARSE(app, argc, argv);
+    // Before any work: a mesh of millions of triangles is not made for a folder it
+    // cannot be written to.
+    if (const std::string why = tools::check_writable("-o", out); !why.empty()) {
+        std::fprintf(stderr, "scenegen: error: %s\n", why.c_str());
+        return 2;
+    }
     try {
         const auto t0 = std::chrono::steady_clock::now();
+        tools::memory::set_stage("generating the mesh");
         const scenegen::Document doc = scenegen::generate(kind, triangles, seed);
+        tools::memory::set_stage("writing the file");
         scenegen::write_glb(out, doc);
         const double s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
         std::printf("scenegen: wrote %s: %s, %llu triangles after instancing (%zu meshes, %zu nodes), %.2f s\n",
                     out.c_str(), kind.c_str(), (unsigned long long)doc.instanced_triangles(), doc.meshes.size(),
                     doc.nodes.size(), s);
+    } catch (const std::bad_alloc& e) {
+        tools::memory::out_of_memory(e);
     } catch (const std::exception& e) {
         std::fprintf(stderr, "scenegen: error: %s\n", e.what());
         return 2;

@@ -16,6 +16,7 @@
 #include "renderer/xcheck.h"
 #include "scenes/load.h"
 #include "tools/cli.h"
+#include "tools/memory/memory.h"
 
 namespace {
 
@@ -149,11 +150,15 @@ struct Built {
 
 Built build_all(const Backends& b, const renderer::SceneGeometry& geometry) {
     Built built;
+    const tools::memory::Stage stage("building the BVHs");
+    const uint64_t failures = tools::memory::failures();
     try {
         built.ref = renderer::build_accelerator(b.ref.backend, geometry, b.ref.options, false);
         for (const auto& s : b.specs)
             built.others.push_back(renderer::build_accelerator(s.backend, geometry, s.options, false));
     } catch (const accel::AccelError& e) {
+        // A plugin reports its failed allocation as an error of its own.
+        if (tools::memory::failures() != failures) tools::memory::out_of_memory();
         fail(e.what());
     }
     return built;
@@ -245,7 +250,8 @@ void write_dump(const std::string& dump_path, const std::string& scene_path, con
 
 }  // namespace
 
-int main(int argc, char** argv) {
+int main(int argc, char** argv) try {
+    tools::memory::install("xcheck");
     CLI::App app{"Cross-check backends ray by ray: camera, random, edge/vertex, grazing, shadow and "
                  "diffuse-bounce rays, each disagreement classified (tie, numerical, real)."};
     Options o;
@@ -259,7 +265,9 @@ int main(int argc, char** argv) {
 
     const renderer::SceneGeometry geometry(scene);
     const Built built = build_all(b, geometry);
+    tools::memory::set_stage("making the rays");
     const std::vector<renderer::RaySet> sets = make_sets(o, kinds, scene, *built.ref);
+    tools::memory::set_stage("tracing the rays");
 
     std::printf("scene %s: %llu triangles, %zu spheres; reference %s (%s)\n", o.scene_path.c_str(),
                 (unsigned long long)tris, scene.spheres.size(), b.ref.label.c_str(),
@@ -269,4 +277,6 @@ int main(int argc, char** argv) {
     if (!o.replay_path.empty()) print_replayed(b, built, sets);
     if (!o.dump_path.empty()) write_dump(o.dump_path, o.scene_path, b.ref.label, bad);
     return total_real > 0 ? 1 : 0;
+} catch (const std::bad_alloc& e) {
+    tools::memory::out_of_memory(e);
 }

@@ -8,6 +8,7 @@
 #include "accel/bvh/build.h"
 
 #include "accel/bvh/build_bins.h"
+#include "accel/out_of_memory.h"
 
 #include <tbb/blocked_range.h>
 #include <tbb/enumerable_thread_specific.h>
@@ -200,7 +201,7 @@ struct FreshArray {
         const size_t align = bytes >= kHuge ? kHuge : 64;
         bytes = (bytes + align - 1) / align * align;
         p = static_cast<T*>(std::aligned_alloc(align, bytes));
-        if (!p) throw std::bad_alloc();
+        if (!p) throw_out_of_memory(bytes);
 #ifdef MADV_HUGEPAGE
         if (align == kHuge) madvise(p, bytes, MADV_HUGEPAGE);
 #endif

@@ -19,6 +19,7 @@
 #include <vector>
 
 #include "accel/bvh/build.h"
+#include "accel/out_of_memory.h"
 
 namespace accel::bvh {
 
@@ -106,7 +107,7 @@ struct TraversalAllocator {
         const size_t bytes = n * sizeof(T);
         const size_t align = bytes >= kHuge / 2 ? kHuge : std::max<size_t>(alignof(T), 64);
         void* p = std::aligned_alloc(align, (bytes + align - 1) / align * align);
-        if (!p) throw std::bad_alloc();
+        if (!p) throw_out_of_memory(bytes);
 #ifdef MADV_HUGEPAGE
         if (align == kHuge) madvise(p, (bytes + align - 1) / align * align, MADV_HUGEPAGE);
 #endif

@@ -4,6 +4,7 @@
 #include <embree3/rtcore.h>
 #include <tbb/task_arena.h>
 
+#include <algorithm>
 #include <atomic>
 #include <chrono>
 #include <cstdint>
@@ -13,6 +14,7 @@
 #include <type_traits>
 #include <vector>
 
+#include "accel/out_of_memory.h"
 #include "accel/primitive.h"
 
 namespace accel {
@@ -58,6 +60,9 @@ struct DeviceState {
     /// Net bytes Embree allocated on this device. Embree has no "how big is my BVH"
     /// query; the memory monitor callback is the only honest source.
     std::atomic<int64_t> bytes{0};
+    /// The latest request the monitor saw: Embree allocates outside operator new and its
+    /// RTC_ERROR_OUT_OF_MEMORY carries no size, so this is the size an error names.
+    std::atomic<int64_t> last_request{0};
 };
 
 void on_error(void* user, RTCError code, const char* str) {
@@ -71,7 +76,9 @@ void on_error(void* user, RTCError code, const char* str) {
 }
 
 bool on_memory(void* user, ssize_t bytes, bool /*post*/) {
-    static_cast<DeviceState*>(user)->bytes.fetch_add(int64_t(bytes), std::memory_order_relaxed);
+    auto* s = static_cast<DeviceState*>(user);
+    s->bytes.fetch_add(int64_t(bytes), std::memory_order_relaxed);
+    if (bytes > 0) s->last_request.store(int64_t(bytes), std::memory_order_relaxed);
     return true;  // never veto an allocation
 }
 
@@ -187,8 +194,11 @@ public:
         device_ = device_holder_.h = rtcNewDevice(config.c_str());
         if (!device_) {
             // No device, no callback: the code is all Embree 3 can tell us.
-            throw AccelError(std::string("Embree error ") + error_name(rtcGetDeviceError(nullptr)) +
-                             ": rtcNewDevice failed (config \"" + config + "\")");
+            const RTCError code = rtcGetDeviceError(nullptr);
+            const std::string msg = std::string("Embree error ") + error_name(code) +
+                                    ": rtcNewDevice failed (config \"" + config + "\")";
+            if (code == RTC_ERROR_OUT_OF_MEMORY) throw OutOfMemory(0, msg);
+            throw AccelError(msg);
         }
         rtcSetDeviceErrorFunction(device_, on_error, state_.get());
         rtcSetDeviceMemoryMonitorFunction(device_, on_memory, state_.get());
@@ -328,8 +338,11 @@ private:
         if (state_->error == RTC_ERROR_NONE) return;
         std::string msg = std::string("Embree error ") + error_name(state_->error) + ": " +
                           state_->message + " (during " + what + ")";
+        const RTCError code = state_->error;
         state_->error = RTC_ERROR_NONE;
         state_->message.clear();
+        if (code == RTC_ERROR_OUT_OF_MEMORY)
+            throw OutOfMemory(uint64_t(std::max<int64_t>(0, state_->last_request.load())), msg);
         throw AccelError(msg);
     }
 

@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # Rendering across processes under mpirun: 2 and 3 ranks give the single-process EXR bit
-# for bit (every channel) and the same statistics lines; a rank that fails to load, or is
-# killed, stops every rank within 10 s with a non-zero status and no image.
+# for bit (every channel) and the same statistics lines; a rank that fails to load, is
+# killed or runs out of memory stops every rank with a non-zero status (3 for memory) and
+# no image.
 # Skips (status 77) when pathtracer was built without MPI or mpirun is absent.
 # Args: TOOLS_DIR SOURCE_DIR SHARED_SCENES_DIR
 set -u
@@ -75,6 +76,29 @@ left=$(pgrep -f "$TMP/killed.exr" | wc -l)
 { [ $st -ne 0 ] && [ $st -ne 124 ] && [ $took -le 30 ] && [ "$left" -eq 0 ] && [ ! -e "$TMP/killed.exr" ]; } \
   && echo "ok   a killed rank stops the job (status $st, ${took} s including 3 s before the kill)" \
   || { fail "killed rank: status $st after ${took} s, $left processes left"; tail -8 "$TMP/err"; }
+
+# A rank that runs out of memory (rank 1 alone under ulimit -v, with a mesh too large for
+# it): every rank stops with status 3, the rank's log shows the stage, and no image.
+# The limit is a running render's address space on this machine plus 300 MB, as in
+# memory_cli.sh.
+"$PT" --integrator=normals -s 1000000 -r 32 24 -q -f "$TMP/base.png" "$SCENE" >/dev/null 2>&1 &
+pid=$!; sleep 2
+base_kb=$(awk '/^VmPeak/{print $2}' /proc/$pid/status); kill -9 $pid; wait $pid 2>/dev/null
+"$1/scenegen" --kind sphere -n 3000000 --seed 1 -o "$TMP/big.glb" >/dev/null || fail "scenegen"
+cat >"$TMP/oom_rank.sh" <<EOS
+#!/bin/sh
+scene="$SCENE"
+if [ "\$OMPI_COMM_WORLD_RANK" = 1 ]; then ulimit -v $((base_kb + 300 * 1024)); scene="$TMP/big.glb"; fi
+exec "$PT" -s 100000 -r 72 40 -t 1 -q -f "$TMP/oom.exr" "\$scene"
+EOS
+start=$(date +%s)
+(ulimit -c 0; timeout 60 "${MPI[@]}" -np 3 sh "$TMP/oom_rank.sh" >/dev/null 2>"$TMP/err"); st=$?
+took=$(( $(date +%s) - start ))
+{ [ $st -eq 3 ] && [ $took -le 30 ] && grep -q "rank 1 of 3 stopped" "$TMP/err" \
+  && grep -qE "rank 1 \| pathtracer: error: out of memory while (loading the scene|building the BVH): .*bytes" "$TMP/err" \
+  && [ ! -e "$TMP/oom.exr" ]; } \
+  && echo "ok   a rank that runs out of memory stops the job (status $st, ${took} s)" \
+  || { fail "out-of-memory rank: status $st after ${took} s"; tail -8 "$TMP/err"; }
 
 ls "$TMP"/pathtracer-rank* >/dev/null 2>&1 && fail "a rank's private log was left behind"
 

@@ -26,6 +26,10 @@ World init(int& argc, char**& argv, const char* prog);
 /// Leaves the job cleanly; call on every rank before a normal exit.
 void finalize();
 
+/// Stops every rank now, as an exit before finalize() does, but with this exit status
+/// (3: out of memory). A no-op outside an MPI job.
+void abort_job(int status);
+
 /// Rank 0 hands out tiles on demand and gathers the finished ones into its state; every
 /// rank renders with all its threads. nullptr when the job has one rank.
 std::unique_ptr<renderer::TileSource> make_tile_source(const World& world);

@@ -37,6 +37,7 @@ World g_world;
 int g_stderr = -1;        // the real stderr of a rank != 0
 std::string g_log;        // that rank's stderr (unlinked once open)
 const char* g_prog = "pathtracer";
+int g_abort_status = 2;   // what mpirun exits with when a rank stops the job
 
 /// Exit without finalize(): show why (this rank's log) and stop every rank.
 extern "C" void on_exit_unfinished() {
@@ -60,7 +61,7 @@ extern "C" void on_exit_unfinished() {
     std::fprintf(stderr, "%s: error: rank %d of %d stopped before the job finished; stopping every rank\n%s",
                  g_prog, g_world.rank, g_world.size, tail.c_str());
     std::fflush(stderr);
-    MPI_Abort(MPI_COMM_WORLD, 2);
+    MPI_Abort(MPI_COMM_WORLD, g_abort_status);
 }
 
 void pack(const renderer::Accumulation& acc, const renderer::Cell& r, long tile, std::vector<char>& buf) {
@@ -75,6 +76,11 @@ void pack(const renderer::Accumulation& acc, const renderer::Cell& r, long tile,
 class MpiTiles final : public renderer::TileSource {
 public:
     explicit MpiTiles(const World& w) : world_(w) {}
+    // A render that throws (out of memory) leaves the dispatcher running; the job is
+    // being stopped by then, and a joinable std::thread would call std::terminate.
+    ~MpiTiles() override {
+        if (dispatcher_.joinable()) dispatcher_.detach();
+    }
 
     void start(renderer::Accumulation& acc, const renderer::TileGrid& grid,
                std::function<void(size_t)> arrived) override {
@@ -205,6 +211,12 @@ World init(int& argc, char**& argv, const char* prog) {
         }
     }
     return g_world;
+}
+
+void abort_job(int status) {
+    if (!g_active || g_finalized) return;
+    g_abort_status = status;
+    on_exit_unfinished();
 }
 
 void finalize() {
