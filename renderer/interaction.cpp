@@ -9,12 +9,12 @@ namespace renderer {
 
 Vec3f texel(const scenes::Scene& scene, uint32_t texture, const Vec2f& uv) {
     if (texture == scenes::kNoTexture || texture >= scene.textures.size()) return Vec3f(1.0f);
-    return lookup(scene.textures[texture], uv, UvFootprint{}, TextureFilter::Nearest).rgb();
+    return lookup(scene.textures[texture], uv, kNoFootprint, TextureFilter::Nearest).rgb();
 }
 
 Texel4 texel4(const scenes::Scene& scene, uint32_t texture, const Interaction& it) {
     if (texture == scenes::kNoTexture || texture >= scene.textures.size()) return Texel4{1.0f, 1.0f, 1.0f, 1.0f};
-    return lookup(scene.textures[texture], it.uv, it.duv, it.filter);
+    return lookup(scene.textures[texture], it.uv, it.lod, it.filter);
 }
 
 void set_texture_footprint(Interaction& it, const PixelSpread& spread, TextureFilter filter, bool camera_ray,
@@ -26,7 +26,7 @@ void set_texture_footprint(Interaction& it, const PixelSpread& spread, TextureFi
         camera_dpdxy(spread, dir, it.p, it.ng, dpdx, dpdy);
     else
         approximate_dpdxy(spread, it.p, it.ng, dpdx, dpdy);
-    it.duv = uv_footprint(it.dpdu, it.dpdv, dpdx, dpdy);
+    it.lod = uv_lod(uv_footprint(it.dpdu, it.dpdv, dpdx, dpdy));
 }
 
 void triangle_point(const Vec3f& p0, const Vec3f& p1, const Vec3f& p2, float u, float v, Vec3f& p,

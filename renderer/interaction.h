@@ -25,7 +25,7 @@ struct Interaction {
     Vec3f dpdu{0.0f}, dpdv{0.0f};
     /// The pixel's footprint in uv and how to filter with it (set_texture_footprint);
     /// untextured hits keep the default, which no lookup reads.
-    UvFootprint duv;
+    float lod = kNoFootprint;  ///< uv_lod of the footprint
     TextureFilter filter = TextureFilter::Nearest;
     uint32_t material = 0;
     float t = 0;
@@ -36,7 +36,7 @@ struct Interaction {
 /// no footprint (a point sampled on an emitter).
 Vec3f texel(const scenes::Scene& scene, uint32_t texture, const Vec2f& uv);
 
-/// Texture channels R, G, B, A at a hit, filtered by its footprint (it.filter, it.duv);
+/// Texture channels R, G, B, A at a hit, filtered by its footprint (it.filter, it.lod);
 /// white for kNoTexture.
 Texel4 texel4(const scenes::Scene& scene, uint32_t texture, const Interaction& it);
 inline Vec3f texel(const scenes::Scene& scene, uint32_t texture, const Interaction& it) {
@@ -51,7 +51,7 @@ inline bool is_textured(const scenes::Material& m) {
            m.transmission_texture != scenes::kNoTexture;
 }
 
-/// Sets it.duv and it.filter for a hit on a textured triangle. `camera_ray`: the hit was
+/// Sets it.lod and it.filter for a hit on a textured triangle. `camera_ray`: the hit was
 /// found by the camera ray with direction `dir` (its differentials are transferred
 /// exactly); later hits use the approximate footprint (renderer/texture.h). Without a
 /// valid spread the footprint stays a point (level 0).

@@ -49,14 +49,14 @@ inline float wrap01(float x) {
     return std::isfinite(f) ? f : 0.0f;
 }
 
-/// Stored channels of one texel, weighted, added to acc. `ncolour` stored channels are
-/// sRGB-encoded (decoded before filtering: filtering averages light, not codes).
-template <TexelFormat F>
-inline void add_texel(const uint8_t* p, int nc, int ncolour, float w, float* acc) {
-    for (int c = 0; c < nc; ++c) {
+/// Stored channels of one texel, weighted, added to acc. The first NCOL stored channels
+/// are sRGB-encoded (decoded before filtering: filtering averages light, not codes).
+template <TexelFormat F, int NC, int NCOL>
+inline void add_texel(const uint8_t* p, float w, float* acc) {
+    for (int c = 0; c < NC; ++c) {
         float v;
         if constexpr (F == TexelFormat::U8) {
-            v = c < ncolour ? kSrgb8[p[c]] : float(p[c]) * (1.0f / 255.0f);
+            v = c < NCOL ? kSrgb8[p[c]] : float(p[c]) * (1.0f / 255.0f);
         } else if constexpr (F == TexelFormat::U16) {
             uint16_t u;
             std::memcpy(&u, p + 2 * c, 2);
@@ -72,82 +72,109 @@ inline void add_texel(const uint8_t* p, int nc, int ncolour, float w, float* acc
     }
 }
 
-template <TexelFormat F>
-struct Sampler {
-    const Texture& t;
-    int nc, ncolour;
-    size_t tb;
+constexpr size_t kBytes(TexelFormat f) { return scenes::texel_format_bytes(f); }
 
-    explicit Sampler(const Texture& tex)
-        : t(tex), nc(tex.channels), ncolour(tex.srgb ? (tex.slot[3] >= 0 ? tex.channels - 1 : tex.channels) : 0),
-          tb(tex.texel_bytes()) {}
-
-    /// The texel uv falls in, as the renderer always read textures: x = floor(u w).
-    void nearest(uint32_t level, float u, float v, float w, float* acc) const {
-        const Texture::Level& l = t.levels[level];
-        const uint32_t x = std::min(l.width - 1, uint32_t(u * float(l.width)));
-        const uint32_t y = std::min(l.height - 1, uint32_t(v * float(l.height)));
-        add_texel<F>(t.data.data() + l.offset + (size_t(y) * l.width + x) * tb, nc, ncolour, w, acc);
-    }
-
-    /// Bilinear between the four texel centres around uv, wrapping at the edges.
-    void bilinear(uint32_t level, float u, float v, float w, float* acc) const {
-        const Texture::Level& l = t.levels[level];
-        const float x = u * float(l.width) - 0.5f, y = v * float(l.height) - 0.5f;
-        const float x0f = std::floor(x), y0f = std::floor(y);
-        const float fx = x - x0f, fy = y - y0f;
-        // u in [0, 1] puts x0 in [-1, width - 1].
-        int x0 = int(x0f), y0 = int(y0f);
-        if (x0 < 0) x0 += int(l.width);
-        if (y0 < 0) y0 += int(l.height);
-        x0 = std::min(x0, int(l.width) - 1);
-        y0 = std::min(y0, int(l.height) - 1);
-        const int x1 = x0 + 1 == int(l.width) ? 0 : x0 + 1;
-        const int y1 = y0 + 1 == int(l.height) ? 0 : y0 + 1;
-        const uint8_t* base = t.data.data() + l.offset;
-        const size_t row = size_t(l.width) * tb;
-        const uint8_t* r0 = base + size_t(y0) * row;
-        const uint8_t* r1 = base + size_t(y1) * row;
-        add_texel<F>(r0 + size_t(x0) * tb, nc, ncolour, w * (1 - fx) * (1 - fy), acc);
-        add_texel<F>(r0 + size_t(x1) * tb, nc, ncolour, w * fx * (1 - fy), acc);
-        add_texel<F>(r1 + size_t(x0) * tb, nc, ncolour, w * (1 - fx) * fy, acc);
-        add_texel<F>(r1 + size_t(x1) * tb, nc, ncolour, w * fx * fy, acc);
-    }
-
-    void filter(float u, float v, const UvFootprint& duv, TextureFilter f, float* acc) const {
-        switch (f) {
-            case TextureFilter::Nearest: nearest(0, u, v, 1.0f, acc); return;
-            case TextureFilter::Bilinear: bilinear(0, u, v, 1.0f, acc); return;
-            case TextureFilter::Trilinear: {
-                const float level = mip_level(t, duv);
-                const uint32_t l0 = uint32_t(level);
-                const float d = level - float(l0);
-                if (d <= 0.0f || l0 + 1 >= t.levels.size()) {
-                    bilinear(std::min<uint32_t>(l0, uint32_t(t.levels.size() - 1)), u, v, 1.0f, acc);
-                } else {
-                    bilinear(l0, u, v, 1.0f - d, acc);
-                    bilinear(l0 + 1, u, v, d, acc);
-                }
-                return;
-            }
-        }
-    }
-};
-
-}  // namespace
-
-float mip_level(const Texture& t, const UvFootprint& duv) {
-    if (t.levels.size() <= 1) return 0.0f;
-    const float w = float(t.width), h = float(t.height);
-    const float ax = duv.dudx * w, ay = duv.dvdx * h, bx = duv.dudy * w, by = duv.dvdy * h;
-    const float rho2 = std::max(ax * ax + ay * ay, bx * bx + by * by);
-    const float top = float(t.levels.size() - 1);
-    if (!(rho2 > 1.0f)) return 0.0f;  // magnified (or no footprint): the full image
-    if (!std::isfinite(rho2)) return top;
-    return std::min(top, 0.5f * std::log2(rho2));
+/// The texel uv falls in, as the renderer always read textures: x = floor(u w).
+template <TexelFormat F, int NC, int NCOL>
+inline void nearest(const Texture& t, uint32_t level, float u, float v, float w, float* acc) {
+    const Texture::Level& l = t.levels[level];
+    const uint32_t x = std::min(l.width - 1, uint32_t(u * float(l.width)));
+    const uint32_t y = std::min(l.height - 1, uint32_t(v * float(l.height)));
+    add_texel<F, NC, NCOL>(t.data.data() + l.offset + (size_t(y) * l.width + x) * (NC * kBytes(F)), w, acc);
 }
 
-namespace {
+/// Bilinear between the four texel centres around uv, wrapping at the edges.
+template <TexelFormat F, int NC, int NCOL>
+inline void bilinear(const Texture& t, uint32_t level, float u, float v, float w, float* acc) {
+    constexpr size_t tb = NC * kBytes(F);
+    const Texture::Level& l = t.levels[level];
+    const float x = u * float(l.width) - 0.5f, y = v * float(l.height) - 0.5f;
+    const float x0f = std::floor(x), y0f = std::floor(y);
+    const float fx = x - x0f, fy = y - y0f;
+    // u in [0, 1] puts x0 in [-1, width - 1].
+    int x0 = int(x0f), y0 = int(y0f);
+    if (x0 < 0) x0 += int(l.width);
+    if (y0 < 0) y0 += int(l.height);
+    x0 = std::min(x0, int(l.width) - 1);
+    y0 = std::min(y0, int(l.height) - 1);
+    const int x1 = x0 + 1 == int(l.width) ? 0 : x0 + 1;
+    const int y1 = y0 + 1 == int(l.height) ? 0 : y0 + 1;
+    const uint8_t* base = t.data.data() + l.offset;
+    const size_t row = size_t(l.width) * tb;
+    const uint8_t* r0 = base + size_t(y0) * row;
+    const uint8_t* r1 = base + size_t(y1) * row;
+    add_texel<F, NC, NCOL>(r0 + size_t(x0) * tb, w * (1 - fx) * (1 - fy), acc);
+    add_texel<F, NC, NCOL>(r0 + size_t(x1) * tb, w * fx * (1 - fy), acc);
+    add_texel<F, NC, NCOL>(r1 + size_t(x0) * tb, w * (1 - fx) * fy, acc);
+    add_texel<F, NC, NCOL>(r1 + size_t(x1) * tb, w * fx * fy, acc);
+}
+
+template <TexelFormat F, int NC, int NCOL>
+void filter(const Texture& t, float u, float v, float lod, TextureFilter f, float* acc) {
+    switch (f) {
+        case TextureFilter::Nearest: nearest<F, NC, NCOL>(t, 0, u, v, 1.0f, acc); return;
+        case TextureFilter::Bilinear: bilinear<F, NC, NCOL>(t, 0, u, v, 1.0f, acc); return;
+        case TextureFilter::Trilinear: {
+            const float level = mip_level(t, lod);
+            const uint32_t l0 = uint32_t(level);
+            const float d = level - float(l0);
+            if (d <= 0.0f || l0 + 1 >= t.levels.size()) {
+                bilinear<F, NC, NCOL>(t, std::min<uint32_t>(l0, uint32_t(t.levels.size() - 1)), u, v, 1.0f, acc);
+            } else {
+                bilinear<F, NC, NCOL>(t, l0, u, v, 1.0f - d, acc);
+                bilinear<F, NC, NCOL>(t, l0 + 1, u, v, d, acc);
+            }
+            return;
+        }
+    }
+}
+
+using FilterFn = void (*)(const Texture&, float, float, float, TextureFilter, float*);
+using FetchFn = void (*)(const uint8_t*, float, float*);
+
+struct Kernels {
+    FilterFn filter = nullptr;
+    FetchFn fetch = nullptr;
+};
+
+template <TexelFormat F, int NC, int NCOL>
+constexpr Kernels kernels() {
+    return {filter<F, NC, NCOL>, add_texel<F, NC, NCOL>};
+}
+
+/// One instance per (format, stored channels, sRGB channels): the inner loops unroll and
+/// the sRGB test leaves them.
+template <TexelFormat F>
+Kernels pick_kernels(int nc, int ncol) {
+    switch (nc * 8 + ncol) {
+        case 1 * 8 + 0: return kernels<F, 1, 0>();
+        case 2 * 8 + 0: return kernels<F, 2, 0>();
+        case 3 * 8 + 0: return kernels<F, 3, 0>();
+        case 4 * 8 + 0: return kernels<F, 4, 0>();
+        case 1 * 8 + 1: return kernels<F, 1, 1>();
+        case 2 * 8 + 1: return kernels<F, 2, 1>();
+        case 2 * 8 + 2: return kernels<F, 2, 2>();
+        case 3 * 8 + 2: return kernels<F, 3, 2>();
+        case 3 * 8 + 3: return kernels<F, 3, 3>();
+        case 4 * 8 + 3: return kernels<F, 4, 3>();
+        default: return {};
+    }
+}
+
+int srgb_channels(const Texture& t) { return t.srgb ? (t.slot[3] >= 0 ? t.channels - 1 : t.channels) : 0; }
+
+Kernels pick(const Texture& t) {
+    // sRGB applies to 8-bit texels only (decode_texture decodes wider ones at load).
+    const int ncol = t.format == TexelFormat::U8 ? srgb_channels(t) : 0;
+    switch (t.format) {
+        case TexelFormat::U8: return pick_kernels<TexelFormat::U8>(t.channels, ncol);
+        case TexelFormat::U16: return pick_kernels<TexelFormat::U16>(t.channels, ncol);
+        case TexelFormat::F16: return pick_kernels<TexelFormat::F16>(t.channels, ncol);
+        case TexelFormat::F32: return pick_kernels<TexelFormat::F32>(t.channels, ncol);
+    }
+    return {};
+}
+
 Texel4 to_source_channels(const Texture& t, const float* acc) {
     Texel4 out;
     if (t.slot[0] >= 0) out.r = acc[t.slot[0]];
@@ -156,32 +183,55 @@ Texel4 to_source_channels(const Texture& t, const float* acc) {
     if (t.slot[3] >= 0) out.a = acc[t.slot[3]];
     return out;
 }
+
 }  // namespace
 
+// The level whose trilinear kernel has the variance of the pixel's box filter. A level-L
+// texel is a box of 2^L texels and bilinear reconstruction adds a tent of half-width 2^L:
+// variance (2^L)^2 (1/12 + 1/6) = (2^L)^2 / 4. The box over a pixel of rho texels has
+// rho^2 / 12. Equal when 2^L = rho (2 / sqrt 12): L = log2 rho - 0.79. Reading level
+// log2 rho instead (OpenGL's rule) filters with twice the pixel's spread and visibly
+// blurs where a texel is about a pixel wide.
+constexpr float kBoxMatch = -0.7924813f;  // log2(2 / sqrt(12))
+
+float uv_lod(const UvFootprint& duv) {
+    const float rho2 = std::max(duv.dudx * duv.dudx + duv.dvdx * duv.dvdx, duv.dudy * duv.dudy + duv.dvdy * duv.dvdy);
+    if (!(rho2 > 0.0f)) return kNoFootprint;
+    if (!std::isfinite(rho2)) return 1e30f;
+    return 0.5f * std::log2(rho2);
+}
+
+float mip_level(const Texture& t, float lod) {
+    if (t.levels.size() <= 1) return 0.0f;
+    // The pyramid's top level is 1 texel across the image's longer side: levels - 1 is
+    // log2 of that side (of the power of two below it, for other sizes), as pbrt-v4's
+    // MIPMap::Filter counts levels.
+    const float top = float(t.levels.size() - 1);
+    const float level = top + lod + kBoxMatch;
+    return level > 0.0f ? std::min(top, level) : 0.0f;
+}
+
+float mip_level(const Texture& t, const UvFootprint& duv) { return mip_level(t, uv_lod(duv)); }
+
 Texel4 fetch(const Texture& t, uint32_t level, uint32_t x, uint32_t y) {
+    const Kernels k = pick(t);
+    if (!k.fetch) return Texel4{1.0f, 1.0f, 1.0f, 1.0f};
     float acc[4] = {0, 0, 0, 0};
-    const uint8_t* p = t.texel(level, x, y);
-    const int ncolour = t.srgb ? (t.slot[3] >= 0 ? t.channels - 1 : t.channels) : 0;
-    switch (t.format) {
-        case TexelFormat::U8: add_texel<TexelFormat::U8>(p, t.channels, ncolour, 1.0f, acc); break;
-        case TexelFormat::U16: add_texel<TexelFormat::U16>(p, t.channels, ncolour, 1.0f, acc); break;
-        case TexelFormat::F16: add_texel<TexelFormat::F16>(p, t.channels, ncolour, 1.0f, acc); break;
-        case TexelFormat::F32: add_texel<TexelFormat::F32>(p, t.channels, ncolour, 1.0f, acc); break;
-    }
+    k.fetch(t.texel(level, x, y), 1.0f, acc);
+    return to_source_channels(t, acc);
+}
+
+Texel4 lookup(const Texture& t, const Vec2f& uv, float lod, TextureFilter filter) {
+    if (t.empty()) return Texel4{1.0f, 1.0f, 1.0f, 1.0f};
+    const Kernels k = pick(t);
+    if (!k.filter) return Texel4{1.0f, 1.0f, 1.0f, 1.0f};
+    float acc[4] = {0, 0, 0, 0};
+    k.filter(t, wrap01(uv.x), wrap01(uv.y), lod, filter, acc);
     return to_source_channels(t, acc);
 }
 
 Texel4 lookup(const Texture& t, const Vec2f& uv, const UvFootprint& duv, TextureFilter filter) {
-    if (t.empty()) return Texel4{1.0f, 1.0f, 1.0f, 1.0f};
-    const float u = wrap01(uv.x), v = wrap01(uv.y);
-    float acc[4] = {0, 0, 0, 0};
-    switch (t.format) {
-        case TexelFormat::U8: Sampler<TexelFormat::U8>(t).filter(u, v, duv, filter, acc); break;
-        case TexelFormat::U16: Sampler<TexelFormat::U16>(t).filter(u, v, duv, filter, acc); break;
-        case TexelFormat::F16: Sampler<TexelFormat::F16>(t).filter(u, v, duv, filter, acc); break;
-        case TexelFormat::F32: Sampler<TexelFormat::F32>(t).filter(u, v, duv, filter, acc); break;
-    }
-    return to_source_channels(t, acc);
+    return lookup(t, uv, uv_lod(duv), filter);
 }
 
 namespace {

@@ -2,10 +2,13 @@
 // that footprint.
 //
 // Filtering follows Williams, "Pyramidal parametrics" (SIGGRAPH 1983): a MIP pyramid built
-// at load time (scenes/gltf/gltf_image.h) and a trilinear lookup whose level is the log2
-// of the footprint's longer side in texels, the length-based rule of the OpenGL
-// specification (3.9.11 in 3.0) rather than pbrt-v4's max-component width: the level then
-// reads 0 at one texel per pixel and 6 at 64, what a user expects a "level" to mean.
+// at load time (scenes/gltf/gltf_image.h) and a trilinear lookup whose level follows the
+// log2 of the footprint's longer side in texels (the length rule of the OpenGL
+// specification, 3.9.11 in 3.0, rather than pbrt-v4's max-component width), lowered by
+// 0.79 so that the trilinear kernel's variance is the pixel box filter's (texture.cpp
+// says why): the level is 0 up to 1.7 texels per pixel and 5.2 at 64.
+// Levels are counted from the image's longer side, as pbrt-v4 does; a non-square image's
+// shorter axis is then filtered as if it were as fine as the longer one.
 //
 // The footprint comes from ray differentials (Igehy, "Tracing ray differentials",
 // SIGGRAPH 1999) as pbrt-v4 approximates them (Pharr, Jakob, Humphreys, "Physically Based
@@ -49,15 +52,24 @@ struct Texel4 {
     Vec3f rgb() const { return {r, g, b}; }
 };
 
-/// Filtered lookup at uv (wrapping, as glTF's default REPEAT sampler). Nearest and
-/// bilinear read level 0 and ignore `duv`.
+/// log2 of the footprint's longer side in uv units (the length rule above); kNoFootprint
+/// for a point. Computed once per hit: each texture's level is its pyramid height plus
+/// this, so a lookup takes no logarithm.
+inline constexpr float kNoFootprint = -1e30f;
+float uv_lod(const UvFootprint& duv);
+
+/// Filtered lookup at uv (wrapping, as glTF's default REPEAT sampler) for a footprint of
+/// `lod` (uv_lod). Nearest and bilinear read level 0 and ignore it.
+Texel4 lookup(const scenes::Texture& t, const Vec2f& uv, float lod, TextureFilter filter);
 Texel4 lookup(const scenes::Texture& t, const Vec2f& uv, const UvFootprint& duv, TextureFilter filter);
 
 /// One texel of one level, unfiltered (x < that level's width, y < its height).
 Texel4 fetch(const scenes::Texture& t, uint32_t level, uint32_t x, uint32_t y);
 
-/// The continuous MIP level (0 = full resolution) trilinear filtering reads for `duv`,
-/// clamped to the pyramid.
+/// The continuous MIP level (0 = full resolution) trilinear filtering reads for a
+/// footprint, clamped to the pyramid: levels - 1 + lod, the longer side of the image
+/// setting the scale (pbrt-v4 MIPMap::Filter does the same).
+float mip_level(const scenes::Texture& t, float lod);
 float mip_level(const scenes::Texture& t, const UvFootprint& duv);
 
 /// 8-bit sRGB code to linear (IEC 61966-2-1), the 256-entry table lookups decode with.

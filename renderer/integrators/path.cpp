@@ -91,9 +91,11 @@ Vec3f PathIntegrator::li(const accel::Ray& camera_ray, SampleContext& ctx) const
     if (textured_) footprint(it, true, accel::normalize(camera_ray.dir));
     ctx.aov.normal = it.ns;
     ctx.aov.depth = it.t;
-    ctx.aov.albedo = reflectance(scene_, it);
+    // One of the two: each may read a texture.
     if (it.material < scene_.materials.size() && scene_.materials[it.material].bsdf != scenes::BsdfKind::Diffuse)
         ctx.aov.albedo = bsdf::aov_albedo(scene_, scene_.materials[it.material], it);
+    else
+        ctx.aov.albedo = reflectance(scene_, it);
 
     Vec3f L(0.0f);
     Vec3f wo = -accel::normalize(camera_ray.dir);
