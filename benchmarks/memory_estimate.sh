@@ -45,7 +45,7 @@ for s in "${scenes[@]}"; do
     meas=$(awk '{print $1/1024}' "$TMP/rss")
     err=$(awk -v e="$est" -v m="$meas" 'BEGIN{printf "%+.1f", 100*(e-m)/m}')
     printf "| %s | %s | %s | %.0f | %.0f | %s %% |\n" "$(basename "$s")" "$tris" "$accel" "$est" "$meas" "$err"
-    worst=$(awk -v w="$worst" -v e="$err" 'BEGIN{a=e<0?-e:e; print a>w?a:w}')
+    worst=$(awk -v w="$worst" -v e="$err" 'BEGIN{a = e < 0 ? -e : e; print (a > w ? a : w)}')
   done
 done
 echo

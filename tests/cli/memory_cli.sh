@@ -78,6 +78,15 @@ for accel in custom embree; do
   [ ! -e "$TMP/v.png" ] && ! ls -A "$TMP" | grep -q "tmp" || fail "ulimit -v --accel $accel: a file was left: $(ls -A "$TMP")"
 done
 
+# xcheck and accel_bench under the same limit: the same one line and status.
+run "xcheck under ulimit -v" 3 "^xcheck: error: out of memory while (loading the scene|building the BVHs): .*bytes" -- \
+  bash -c "ulimit -v $limit_kb; exec \"$1/xcheck\" --rays 1000 \"$TMP/big.glb\""
+BENCH="$1/../benchmarks/accel_bench"
+if [ -x "$BENCH" ]; then
+  run "accel_bench under ulimit -v" 3 "^accel_bench: error: out of memory while (loading the scene|building the BVHs): .*bytes" -- \
+    bash -c "ulimit -v $limit_kb; exec \"$BENCH\" --quick --no-course --scene \"$TMP/big.glb\""
+fi
+
 # scenegen under the same kind of limit.
 run "scenegen under ulimit -v" 3 "^scenegen: error: out of memory while (generating the mesh|writing the file): .*bytes" -- \
   bash -c "ulimit -v 400000; exec \"$GEN\" --kind sphere -n 20000000 -o \"$TMP/gen.glb\""

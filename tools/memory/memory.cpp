@@ -27,6 +27,9 @@ std::atomic<bool> g_line_open{false};
 const char* g_prog = "program";
 void (*g_exit_hook)(int) = nullptr;
 std::atomic<bool> g_exiting{false};
+// Address space set aside at start and given back before the one-line exit, so that
+// formatting the message (and MPI's abort) can allocate when nothing else could.
+void* g_reserve = nullptr;
 
 [[noreturn]] void fail_allocation(std::size_t n) {
     g_last_failed.store(n, std::memory_order_relaxed);
@@ -101,14 +104,18 @@ namespace tools::memory {
 
 void install(const char* prog) {
     g_prog = prog;
+    g_reserve = std::malloc(size_t(1) << 20);
     std::set_terminate(on_terminate);
 }
 
 void on_exit(void (*hook)(int status)) { g_exit_hook = hook; }
 
 Stage::Stage(const char* name, bool line_open)
-    : previous_(g_stage.exchange(name)), previous_open_(g_line_open.exchange(line_open)) {}
+    : previous_(g_stage.exchange(name)),
+      previous_open_(g_line_open.exchange(line_open)),
+      uncaught_(std::uncaught_exceptions()) {}
 Stage::~Stage() {
+    if (std::uncaught_exceptions() > uncaught_) return;
     g_stage.store(previous_);
     g_line_open.store(previous_open_);
 }
@@ -139,6 +146,8 @@ void out_of_memory(uint64_t bytes, const std::string& what) {
     if (g_exiting.exchange(true)) {
         for (;;) ::pause();
     }
+    std::free(g_reserve);
+    g_reserve = nullptr;
     if (bytes == 0) bytes = g_last_failed.load();
     const std::string detail = !what.empty() ? what
                                : bytes > 0   ? "an allocation of " + bytes_text(bytes) + " failed"
@@ -153,6 +162,8 @@ void out_of_memory(uint64_t bytes, const std::string& what) {
 }
 
 void refuse(const std::string& message) {
+    std::free(g_reserve);
+    g_reserve = nullptr;
     std::fflush(stdout);
     std::fprintf(stderr, "%s: error: out of memory: %s\n", g_prog, message.c_str());
     std::fflush(stderr);
@@ -161,6 +172,8 @@ void refuse(const std::string& message) {
 }
 
 void out_of_memory(const std::bad_alloc& e) {
+    std::free(g_reserve);  // the message below is formatted on the heap
+    g_reserve = nullptr;
     if (const auto* oom = dynamic_cast<const accel::OutOfMemory*>(&e)) {
         if (oom->plain()) out_of_memory(oom->bytes());
         out_of_memory(oom->bytes(), oom->bytes() ? fmt::format("{} (an allocation of {})", oom->what(),

@@ -25,7 +25,9 @@ void install(const char* prog);
 void on_exit(void (*hook)(int status));
 
 /// The stage named by the out-of-memory line while this object lives ("loading the
-/// scene", "building the BVH", ...); stages nest and the innermost is named. `line_open`:
+/// scene", "building the BVH", ...); stages nest and the innermost is named. An exception
+/// that leaves the stage keeps its name, so a catch further out still names where the
+/// allocation failed. `line_open`:
 /// the stage leaves a progress line unfinished ("Building BVH... "), so the error starts
 /// a new one.
 class Stage {
@@ -38,6 +40,7 @@ public:
 private:
     const char* previous_;
     bool previous_open_;
+    int uncaught_;
 };
 
 /// Names the stage from here on, for code that reports its steps through a callback
