@@ -20,7 +20,7 @@ check() {  # check NAME EXPECTED_STATUS PATTERN -- command...
 check help 0 "--embree-quality" -- "$PT" --help
 grep -q "KHR_materials_unlit" "$TMP/out" || { echo "FAIL help does not list KHR_materials_unlit"; fails=$((fails+1)); }
 for opt in -s -l -t -m -o -a -H -f -r -p --integrator --accel --bvh --leaf-size --triangle \
-           --embree-quality --embree-robust --embree-count --camera --seed --rr --only; do
+           --embree-quality --embree-robust --embree-count --camera --seed --rr --only --max-memory; do
   grep -qE -- "^ +$opt[ ,]" "$TMP/out" || { echo "FAIL help does not document $opt"; fails=$((fails+1)); }
 done
 check missing-scene 2 "error: $TMP/nope.dae: no such file" -- "$PT" "$TMP/nope.dae"
