@@ -20,13 +20,19 @@ Texel4 texel4(const scenes::Scene& scene, uint32_t texture, const Interaction& i
 void set_texture_footprint(Interaction& it, const PixelSpread& spread, TextureFilter filter, bool camera_ray,
                            const Vec3f& dir) {
     it.filter = filter;
-    if (filter != TextureFilter::Trilinear || !spread.valid()) return;
+    if (!is_mip_filter(filter) || !spread.valid()) return;
     Vec3f dpdx, dpdy;
     if (camera_ray)
         camera_dpdxy(spread, dir, it.p, it.ng, dpdx, dpdy);
     else
         approximate_dpdxy(spread, it.p, it.ng, dpdx, dpdy);
     it.lod = uv_lod(uv_footprint(it.dpdu, it.dpdv, dpdx, dpdy));
+}
+
+void prefetch_textures(const scenes::Scene& scene, const scenes::Material& m, const Interaction& it) {
+    for (const uint32_t tex : {m.normal_texture, m.albedo_texture, m.metallic_roughness_texture,
+                               m.emission_texture, m.transmission_texture})
+        if (tex < scene.textures.size()) prefetch(scene.textures[tex], it.uv, it.lod, it.filter);
 }
 
 void triangle_point(const Vec3f& p0, const Vec3f& p1, const Vec3f& p2, float u, float v, Vec3f& p,

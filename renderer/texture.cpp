@@ -12,7 +12,8 @@ TextureFilter parse_texture_filter(const std::string& name) {
     if (name == "nearest") return TextureFilter::Nearest;
     if (name == "bilinear") return TextureFilter::Bilinear;
     if (name == "trilinear") return TextureFilter::Trilinear;
-    throw std::invalid_argument("unknown texture filter '" + name + "' (expected nearest, bilinear or trilinear)");
+    if (name == "trilinear-blend") return TextureFilter::TrilinearBlend;
+    throw std::invalid_argument("unknown texture filter '" + name + "' (expected nearest, bilinear, trilinear or trilinear-blend)");
 }
 
 const char* texture_filter_name(TextureFilter f) {
@@ -20,6 +21,7 @@ const char* texture_filter_name(TextureFilter f) {
         case TextureFilter::Nearest: return "nearest";
         case TextureFilter::Bilinear: return "bilinear";
         case TextureFilter::Trilinear: return "trilinear";
+        case TextureFilter::TrilinearBlend: return "trilinear-blend";
     }
     return "?";
 }
@@ -109,12 +111,45 @@ inline void bilinear(const Texture& t, uint32_t level, float u, float v, float w
     add_texel<F, NC, NCOL>(r1 + size_t(x1) * tb, w * fx * fy, acc);
 }
 
+/// A random number in [0, 1) for stochastic texture filtering (Pharr, Wronski, Salvi,
+/// Fajardo, "Filtering After Shading With Stochastic Texture Filtering", I3D 2024,
+/// section 3) that picks one of the two levels a trilinear lookup blends, l0 + 1
+/// with probability d. The expected value is the blend, while a lookup reads four texels
+/// instead of eight: on a large image every level is a separate cache miss, and the
+/// second one made trilinear slower than the nearest-texel lookups it replaced.
+/// The number hashes the lookup's uv bits (an LCG step and xorshift mixing, after pcg2d
+/// in Jarzynski and Olano, "Hash Functions for GPU Rendering", JCGT 2020): the samples
+/// of a pixel hit different points and so draw independently, the textures of one hit
+/// make the same choice, and a render stays deterministic.
+inline float level_choice(float u, float v) {
+    uint32_t a, b;
+    std::memcpy(&a, &u, 4);
+    std::memcpy(&b, &v, 4);
+    a = a * 1664525u + 1013904223u;
+    b = b * 1664525u + 1013904223u;
+    a += b * 1664525u;
+    b += a * 1664525u;
+    a ^= a >> 16;
+    b ^= b >> 16;
+    return float(a >> 8) * 0x1p-24f;
+}
+
 template <TexelFormat F, int NC, int NCOL>
 void filter(const Texture& t, float u, float v, float lod, TextureFilter f, float* acc) {
     switch (f) {
         case TextureFilter::Nearest: nearest<F, NC, NCOL>(t, 0, u, v, 1.0f, acc); return;
         case TextureFilter::Bilinear: bilinear<F, NC, NCOL>(t, 0, u, v, 1.0f, acc); return;
         case TextureFilter::Trilinear: {
+            const float level = mip_level(t, lod);
+            const uint32_t l0 = uint32_t(level);
+            const float d = level - float(l0);
+            if (d <= 0.0f || l0 + 1 >= t.levels.size())
+                bilinear<F, NC, NCOL>(t, std::min<uint32_t>(l0, uint32_t(t.levels.size() - 1)), u, v, 1.0f, acc);
+            else
+                bilinear<F, NC, NCOL>(t, level_choice(u, v) < d ? l0 + 1 : l0, u, v, 1.0f, acc);
+            return;
+        }
+        case TextureFilter::TrilinearBlend: {
             const float level = mip_level(t, lod);
             const uint32_t l0 = uint32_t(level);
             const float d = level - float(l0);
@@ -232,6 +267,50 @@ Texel4 lookup(const Texture& t, const Vec2f& uv, float lod, TextureFilter filter
 
 Texel4 lookup(const Texture& t, const Vec2f& uv, const UvFootprint& duv, TextureFilter filter) {
     return lookup(t, uv, uv_lod(duv), filter);
+}
+
+namespace {
+/// Starts loading the 2x2 texels a bilinear lookup at (u, v) reads from `level`.
+inline void prefetch_level(const Texture& t, uint32_t level, float u, float v) {
+    const Texture::Level& l = t.levels[level];
+    const size_t tb = t.texel_bytes();
+    const float x = u * float(l.width) - 0.5f, y = v * float(l.height) - 0.5f;
+    int x0 = int(std::floor(x)), y0 = int(std::floor(y));
+    if (x0 < 0) x0 += int(l.width);
+    if (y0 < 0) y0 += int(l.height);
+    x0 = std::min(x0, int(l.width) - 1);
+    y0 = std::min(y0, int(l.height) - 1);
+    const int x1 = x0 + 1 == int(l.width) ? 0 : x0 + 1;
+    const int y1 = y0 + 1 == int(l.height) ? 0 : y0 + 1;
+    const uint8_t* base = t.data.data() + l.offset;
+    const size_t row = size_t(l.width) * tb;
+    for (const size_t r : {size_t(y0) * row, size_t(y1) * row}) {
+        __builtin_prefetch(base + r + size_t(x0) * tb);
+        // The texel's last byte: the pair may straddle a cache line.
+        __builtin_prefetch(base + r + size_t(x1) * tb + tb - 1);
+    }
+}
+}  // namespace
+
+void prefetch(const Texture& t, const Vec2f& uv, float lod, TextureFilter filter) {
+    if (t.empty()) return;
+    const float u = wrap01(uv.x), v = wrap01(uv.y);
+    if (filter == TextureFilter::Nearest || filter == TextureFilter::Bilinear) {
+        prefetch_level(t, 0, u, v);
+        return;
+    }
+    const float level = mip_level(t, lod);
+    const uint32_t l0 = std::min<uint32_t>(uint32_t(level), uint32_t(t.levels.size() - 1));
+    const float d = level - float(l0);
+    const bool two = d > 0.0f && l0 + 1 < t.levels.size();
+    if (!two) {
+        prefetch_level(t, l0, u, v);
+    } else if (filter == TextureFilter::TrilinearBlend) {
+        prefetch_level(t, l0, u, v);
+        prefetch_level(t, l0 + 1, u, v);
+    } else {
+        prefetch_level(t, level_choice(u, v) < d ? l0 + 1 : l0, u, v);
+    }
 }
 
 namespace {

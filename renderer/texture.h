@@ -33,10 +33,16 @@ using accel::Vec3f;
 
 /// How textures are read: nearest texel of the full image (no filtering; the renderer's
 /// behaviour before MIP maps), bilinear on the full image, or trilinear on the MIP pyramid
-/// at the ray-differential footprint.
-enum class TextureFilter : uint8_t { Nearest, Bilinear, Trilinear };
+/// at the ray-differential footprint. Trilinear reads one of the two levels it blends,
+/// chosen at random with the blend's weight (texture.cpp, level_choice: the blend in
+/// expectation at half the memory traffic); TrilinearBlend reads both and blends them.
+enum class TextureFilter : uint8_t { Nearest, Bilinear, Trilinear, TrilinearBlend };
+inline bool is_mip_filter(TextureFilter f) {
+    return f == TextureFilter::Trilinear || f == TextureFilter::TrilinearBlend;
+}
 
-/// "nearest" | "bilinear" | "trilinear"; throws std::invalid_argument naming the value.
+/// "nearest" | "bilinear" | "trilinear" | "trilinear-blend"; throws std::invalid_argument
+/// naming the value.
 TextureFilter parse_texture_filter(const std::string& name);
 const char* texture_filter_name(TextureFilter f);
 
@@ -62,6 +68,11 @@ float uv_lod(const UvFootprint& duv);
 /// `lod` (uv_lod). Nearest and bilinear read level 0 and ignore it.
 Texel4 lookup(const scenes::Texture& t, const Vec2f& uv, float lod, TextureFilter filter);
 Texel4 lookup(const scenes::Texture& t, const Vec2f& uv, const UvFootprint& duv, TextureFilter filter);
+
+/// Starts loading, without waiting, the texels lookup(t, uv, lod, filter) will read. A
+/// hit reads up to five textures one after another, each a cache miss on a large image;
+/// prefetching them all first lets the misses overlap instead of queueing.
+void prefetch(const scenes::Texture& t, const Vec2f& uv, float lod, TextureFilter filter);
 
 /// One texel of one level, unfiltered (x < that level's width, y < its height).
 Texel4 fetch(const scenes::Texture& t, uint32_t level, uint32_t x, uint32_t y);

@@ -66,7 +66,8 @@ void for_random_lookups(uint32_t seed, F&& f) {
         const Vec2f uv{u01(rng) * 3.0f - 1.0f, u01(rng) * 3.0f - 1.0f};
         const float width = std::exp2(u01(rng) * 8.0f - 1.0f) / 64.0f;  // 0.5 to 128 texels of 64
         UvFootprint duv{width, 0.3f * width * (u01(rng) - 0.5f), 0.2f * width * (u01(rng) - 0.5f), width * u01(rng)};
-        for (TextureFilter filter : {TextureFilter::Nearest, TextureFilter::Bilinear, TextureFilter::Trilinear})
+        for (TextureFilter filter : {TextureFilter::Nearest, TextureFilter::Bilinear, TextureFilter::Trilinear,
+                                     TextureFilter::TrilinearBlend})
             f(uv, duv, filter);
     }
 }
@@ -99,7 +100,7 @@ TEST(Texture8Bit, SrgbLookupsAgreeWithFloatWithin1Over255OfTheirCodes) {
                                    std::abs(srgb_encode(a.g) - srgb_encode(b.g)),
                                    std::abs(srgb_encode(a.b) - srgb_encode(b.b)), std::abs(a.a - b.a)});
         worst = std::max(worst, d);
-        if (filter != TextureFilter::Trilinear)
+        if (!is_mip_filter(filter))
             worst_level0 = std::max({worst_level0, double(std::abs(a.r - b.r)), double(std::abs(a.g - b.g)),
                                      double(std::abs(a.b - b.b))});
     });
@@ -199,6 +200,33 @@ TEST(TextureFootprint, LookupAtSixtyFourTexelsPerPixelAveragesTheCheckerboard) {
     EXPECT_NEAR(lookup(t, uv, UvFootprint{}, TextureFilter::Trilinear).g,
                 lookup(t, uv, UvFootprint{}, TextureFilter::Bilinear).g, 1e-7f)
         << "no footprint: the full image";
+}
+
+
+TEST(TextureFootprint, StochasticLevelChoiceAveragesToTheBlend) {
+    // Level 0 black, level 1 white: the blend at level 0.3 is 0.3. Trilinear reads one
+    // level per lookup, the upper one with probability 0.3 (its choice hashes uv), so its
+    // mean over many points is 0.3; the blend filter gives 0.3 at every point.
+    Texture t = Texture::make("two levels", 4, 4, TexelFormat::U8, "R");
+    t.levels.push_back(Texture::Level{2, 2, t.data.size()});
+    t.data.resize(t.data.size() + 4, 255);
+    const float lod = 0.3f - 1.0f + 0.7924813f;
+    ASSERT_NEAR(mip_level(t, lod), 0.3f, 1e-5f);
+    std::mt19937 rng(7);
+    std::uniform_real_distribution<float> uni(0.0f, 1.0f);
+    const int n = 20000;
+    double sum = 0;
+    int both = 0;
+    for (int i = 0; i < n; ++i) {
+        const Vec2f uv{uni(rng), uni(rng)};
+        const float r = lookup(t, uv, lod, TextureFilter::Trilinear).r;
+        both += r > 1e-6f && r < 1.0f - 1e-6f;  // bilinear weights sum to 1 within rounding
+        sum += r;
+        ASSERT_NEAR(lookup(t, uv, lod, TextureFilter::TrilinearBlend).r, 0.3f, 1e-6f);
+    }
+    EXPECT_EQ(both, 0) << "each lookup reads one level";
+    // Binomial: standard deviation sqrt(0.3 * 0.7 / n) = 0.0032; 5 of them.
+    EXPECT_NEAR(sum / n, 0.3, 0.016);
 }
 
 namespace {
