@@ -257,7 +257,8 @@ int main(int argc, char** argv) {
     std::printf("%-10s %4s %10s %10s %10s\n", "filter", "spp", "image", "near", "far");
     for (int spp : {1, 4, 16})
         for (renderer::TextureFilter f :
-             {renderer::TextureFilter::Nearest, renderer::TextureFilter::Bilinear, renderer::TextureFilter::Trilinear}) {
+             {renderer::TextureFilter::Nearest, renderer::TextureFilter::Bilinear, renderer::TextureFilter::Trilinear,
+              renderer::TextureFilter::Stochastic}) {
             std::vector<uint8_t> img;
             const std::vector<double> y = render(w, f, width, height, spp, 1, spp == 1 ? &img : nullptr);
             std::printf("%-10s %4d %10.4f %10.4f %10.4f\n", renderer::texture_filter_name(f), spp, rel_rmse(y, ref, plane),

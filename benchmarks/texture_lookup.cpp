@@ -176,8 +176,8 @@ int main(int argc, char** argv) {
         const std::vector<Query> qs = make_queries(n, count, coherent);
         const char* pattern = coherent ? "coherent" : "random";
         for (const auto& [name, filter] :
-             {std::pair{"ours trilinear (one level per lookup)", renderer::TextureFilter::Trilinear},
-              std::pair{"ours trilinear-blend (two levels)", renderer::TextureFilter::TrilinearBlend}}) {
+             {std::pair{"ours stochastic (one level per lookup)", renderer::TextureFilter::Stochastic},
+              std::pair{"ours trilinear (two levels)", renderer::TextureFilter::Trilinear}}) {
             for (const int threads : thread_counts) {
                 std::vector<float> sink(size_t(threads) * 16, 0.0f);
                 const double ns = ns_per_lookup(threads, reps, count, [&](int k) {

@@ -23,12 +23,6 @@ namespace OCIO = OCIO_NAMESPACE;
 namespace renderer {
 
 namespace {
-std::string lower_ext(const std::string& path) {
-    std::string e = std::filesystem::path(path).extension().string();
-    std::transform(e.begin(), e.end(), e.begin(), [](unsigned char c) { return char(std::tolower(c)); });
-    return e;
-}
-
 /// Applies the display/view transform of the chosen OCIO config to packed RGB.
 void display_transform(std::vector<float>& rgb, int width, int height, const WriteOptions& o) {
     try {
@@ -51,7 +45,6 @@ void display_transform(std::vector<float>& rgb, int width, int height, const Wri
 }
 }  // namespace
 
-bool is_float_format(const std::string& path) { return lower_ext(path) == ".exr"; }
 
 void write_image(const std::string& path, const Image& image, const WriteOptions& o) {
     namespace fs = std::filesystem;
@@ -123,22 +116,6 @@ void write_image(const std::string& path, const Image& image, const WriteOptions
         fs::remove(tmp, ec);
         throw std::runtime_error(fmt::format("{}: cannot rename into place: {}", path, ec.message()));
     }
-}
-
-Image heat_map(const std::vector<float>& values, int width, int height, float lo, float hi) {
-    Image img(width, height, {"R", "G", "B"});
-    const float range = hi > lo ? hi - lo : 1.0f;
-    for (int y = 0; y < height; ++y)
-        for (int x = 0; x < width; ++x) {
-            float t = std::clamp((values[size_t(y) * width + x] - lo) / range, 0.0f, 1.0f);
-            // Blue -> green over [0, 0.5], green -> red over [0.5, 1].
-            float r = std::clamp(2.0f * t - 1.0f, 0.0f, 1.0f);
-            float b = std::clamp(1.0f - 2.0f * t, 0.0f, 1.0f);
-            float g = 1.0f - r - b;
-            float* p = img.at(x, y);
-            p[0] = r; p[1] = g; p[2] = b;
-        }
-    return img;
 }
 
 scenes::Texture load_environment_image(const std::string& path) {

@@ -1,4 +1,6 @@
-// Float images with named channels, and writing them through OpenImageIO.
+// Float images with named channels, and writing them through OpenImageIO. Programs that
+// link renderer_image_lazy load OpenImageIO only when they first read or write a file
+// (renderer/image_module.h).
 #pragma once
 
 #include <string>
@@ -52,6 +54,10 @@ Image heat_map(const std::vector<float>& values, int width, int height, float lo
 
 /// True for extensions that hold float channels (EXR).
 bool is_float_format(const std::string& path);
+
+/// True for the extensions write_image can write (.exr, .png, .jpg, .tif, ...). Needs no
+/// image library, so outputs are checked before any work.
+bool is_writable_image_format(const std::string& path);
 
 /// Reads a latitude-longitude environment map (EXR/HDR, anything OpenImageIO reads) as
 /// linear float RGB for renderer::EnvironmentMap. Throws scenes::SceneError naming the

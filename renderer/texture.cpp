@@ -12,8 +12,8 @@ TextureFilter parse_texture_filter(const std::string& name) {
     if (name == "nearest") return TextureFilter::Nearest;
     if (name == "bilinear") return TextureFilter::Bilinear;
     if (name == "trilinear") return TextureFilter::Trilinear;
-    if (name == "trilinear-blend") return TextureFilter::TrilinearBlend;
-    throw std::invalid_argument("unknown texture filter '" + name + "' (expected nearest, bilinear, trilinear or trilinear-blend)");
+    if (name == "stochastic") return TextureFilter::Stochastic;
+    throw std::invalid_argument("unknown texture filter '" + name + "' (expected nearest, bilinear, trilinear or stochastic)");
 }
 
 const char* texture_filter_name(TextureFilter f) {
@@ -21,7 +21,7 @@ const char* texture_filter_name(TextureFilter f) {
         case TextureFilter::Nearest: return "nearest";
         case TextureFilter::Bilinear: return "bilinear";
         case TextureFilter::Trilinear: return "trilinear";
-        case TextureFilter::TrilinearBlend: return "trilinear-blend";
+        case TextureFilter::Stochastic: return "stochastic";
     }
     return "?";
 }
@@ -139,7 +139,7 @@ void filter(const Texture& t, float u, float v, float lod, TextureFilter f, floa
     switch (f) {
         case TextureFilter::Nearest: nearest<F, NC, NCOL>(t, 0, u, v, 1.0f, acc); return;
         case TextureFilter::Bilinear: bilinear<F, NC, NCOL>(t, 0, u, v, 1.0f, acc); return;
-        case TextureFilter::Trilinear: {
+        case TextureFilter::Stochastic: {
             const float level = mip_level(t, lod);
             const uint32_t l0 = uint32_t(level);
             const float d = level - float(l0);
@@ -149,7 +149,7 @@ void filter(const Texture& t, float u, float v, float lod, TextureFilter f, floa
                 bilinear<F, NC, NCOL>(t, level_choice(u, v) < d ? l0 + 1 : l0, u, v, 1.0f, acc);
             return;
         }
-        case TextureFilter::TrilinearBlend: {
+        case TextureFilter::Trilinear: {
             const float level = mip_level(t, lod);
             const uint32_t l0 = uint32_t(level);
             const float d = level - float(l0);
@@ -305,7 +305,7 @@ void prefetch(const Texture& t, const Vec2f& uv, float lod, TextureFilter filter
     const bool two = d > 0.0f && l0 + 1 < t.levels.size();
     if (!two) {
         prefetch_level(t, l0, u, v);
-    } else if (filter == TextureFilter::TrilinearBlend) {
+    } else if (filter == TextureFilter::Trilinear) {
         prefetch_level(t, l0, u, v);
         prefetch_level(t, l0 + 1, u, v);
     } else {

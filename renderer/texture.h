@@ -33,15 +33,16 @@ using accel::Vec3f;
 
 /// How textures are read: nearest texel of the full image (no filtering; the renderer's
 /// behaviour before MIP maps), bilinear on the full image, or trilinear on the MIP pyramid
-/// at the ray-differential footprint. Trilinear reads one of the two levels it blends,
-/// chosen at random with the blend's weight (texture.cpp, level_choice: the blend in
-/// expectation at half the memory traffic); TrilinearBlend reads both and blends them.
-enum class TextureFilter : uint8_t { Nearest, Bilinear, Trilinear, TrilinearBlend };
+/// at the ray-differential footprint: Trilinear reads the two levels around it and blends
+/// them (Williams 1983); Stochastic reads one of the two, chosen at random with the blend's
+/// weight (texture.cpp, level_choice: the blend in expectation at half the memory traffic,
+/// after Pharr et al. 2024), at the price of a little noise at low sample counts.
+enum class TextureFilter : uint8_t { Nearest, Bilinear, Trilinear, Stochastic };
 inline bool is_mip_filter(TextureFilter f) {
-    return f == TextureFilter::Trilinear || f == TextureFilter::TrilinearBlend;
+    return f == TextureFilter::Stochastic || f == TextureFilter::Trilinear;
 }
 
-/// "nearest" | "bilinear" | "trilinear" | "trilinear-blend"; throws std::invalid_argument
+/// "nearest" | "bilinear" | "trilinear" | "stochastic"; throws std::invalid_argument
 /// naming the value.
 TextureFilter parse_texture_filter(const std::string& name);
 const char* texture_filter_name(TextureFilter f);

@@ -66,8 +66,8 @@ void for_random_lookups(uint32_t seed, F&& f) {
         const Vec2f uv{u01(rng) * 3.0f - 1.0f, u01(rng) * 3.0f - 1.0f};
         const float width = std::exp2(u01(rng) * 8.0f - 1.0f) / 64.0f;  // 0.5 to 128 texels of 64
         UvFootprint duv{width, 0.3f * width * (u01(rng) - 0.5f), 0.2f * width * (u01(rng) - 0.5f), width * u01(rng)};
-        for (TextureFilter filter : {TextureFilter::Nearest, TextureFilter::Bilinear, TextureFilter::Trilinear,
-                                     TextureFilter::TrilinearBlend})
+        for (TextureFilter filter : {TextureFilter::Nearest, TextureFilter::Bilinear, TextureFilter::Stochastic,
+                                     TextureFilter::Trilinear})
             f(uv, duv, filter);
     }
 }
@@ -194,17 +194,17 @@ TEST(TextureFootprint, LookupAtSixtyFourTexelsPerPixelAveragesTheCheckerboard) {
     const UvFootprint wide{64.0f / 256.0f, 0, 0, 64.0f / 256.0f};
     EXPECT_NEAR(mip_level(t, wide), 6.0f - 0.7924813f, 1e-5f);
     const Vec2f uv{0.3f, 0.7f};
-    EXPECT_NEAR(lookup(t, uv, wide, TextureFilter::Trilinear).g, 0.5f, 0.5f / 255.0f * 2.4f);
+    EXPECT_NEAR(lookup(t, uv, wide, TextureFilter::Stochastic).g, 0.5f, 0.5f / 255.0f * 2.4f);
     const float point = lookup(t, uv, wide, TextureFilter::Nearest).g;
     EXPECT_TRUE(point == 0.0f || point == 1.0f);
-    EXPECT_NEAR(lookup(t, uv, UvFootprint{}, TextureFilter::Trilinear).g,
+    EXPECT_NEAR(lookup(t, uv, UvFootprint{}, TextureFilter::Stochastic).g,
                 lookup(t, uv, UvFootprint{}, TextureFilter::Bilinear).g, 1e-7f)
         << "no footprint: the full image";
 }
 
 
 TEST(TextureFootprint, StochasticLevelChoiceAveragesToTheBlend) {
-    // Level 0 black, level 1 white: the blend at level 0.3 is 0.3. Trilinear reads one
+    // Level 0 black, level 1 white: the blend at level 0.3 is 0.3. Stochastic reads one
     // level per lookup, the upper one with probability 0.3 (its choice hashes uv), so its
     // mean over many points is 0.3; the blend filter gives 0.3 at every point.
     Texture t = Texture::make("two levels", 4, 4, TexelFormat::U8, "R");
@@ -219,10 +219,10 @@ TEST(TextureFootprint, StochasticLevelChoiceAveragesToTheBlend) {
     int both = 0;
     for (int i = 0; i < n; ++i) {
         const Vec2f uv{uni(rng), uni(rng)};
-        const float r = lookup(t, uv, lod, TextureFilter::Trilinear).r;
+        const float r = lookup(t, uv, lod, TextureFilter::Stochastic).r;
         both += r > 1e-6f && r < 1.0f - 1e-6f;  // bilinear weights sum to 1 within rounding
         sum += r;
-        ASSERT_NEAR(lookup(t, uv, lod, TextureFilter::TrilinearBlend).r, 0.3f, 1e-6f);
+        ASSERT_NEAR(lookup(t, uv, lod, TextureFilter::Trilinear).r, 0.3f, 1e-6f);
     }
     EXPECT_EQ(both, 0) << "each lookup reads one level";
     // Binomial: standard deviation sqrt(0.3 * 0.7 / n) = 0.0032; 5 of them.
@@ -259,7 +259,7 @@ TEST(TextureFurnace, TexturedEnclosureConvergesToLeOverOneMinusAlbedo) {
     // linear value, whatever the filter and footprint.
     const uint8_t code = 188;
     const float a = srgb8_to_linear_table()[code];
-    for (TextureFilter filter : {TextureFilter::Nearest, TextureFilter::Bilinear, TextureFilter::Trilinear}) {
+    for (TextureFilter filter : {TextureFilter::Nearest, TextureFilter::Bilinear, TextureFilter::Trilinear, TextureFilter::Stochastic}) {
         World w;
         Texture albedo = Texture::make("albedo", 64, 64, TexelFormat::U8, "RGB");
         albedo.srgb = true;
