@@ -107,19 +107,115 @@ double ns_per_lookup(int threads, int reps, size_t count, F&& body) {
     return best * 1e9 / double(count);
 }
 
-double rss_mib() {
-    std::ifstream f("/proc/self/statm");
-    long pages = 0, resident = 0;
-    f >> pages >> resident;
-    return double(resident) * double(::sysconf(_SC_PAGESIZE)) / (1024.0 * 1024.0);
-}
-
 int64_t cache_bytes(TextureSystem* ts) {
     int64_t mem = 0;
     ts->imagecache()->getattribute("stat:cache_memory_used", TypeDesc::INT64, &mem);
     return mem;
 }
 
+/// The image as a PNG and as a tiled, MIP-mapped .tx, for TextureSystem. False on failure.
+bool write_sources(const std::vector<uint8_t>& px, int n, const std::string& png, const std::string& tx) {
+    ImageBuf buf(ImageSpec(n, n, 3, TypeDesc::UINT8), const_cast<uint8_t*>(px.data()));
+    buf.specmod().attribute("oiio:ColorSpace", "sRGB");
+    if (!buf.write(png)) {
+        std::fprintf(stderr, "texture_lookup: cannot write %s: %s\n", png.c_str(), buf.geterror().c_str());
+        return false;
+    }
+    ImageSpec config;
+    config.attribute("maketx:filtername", "box");
+    if (!ImageBufAlgo::make_texture(ImageBufAlgo::MakeTxTexture, buf, tx, config)) {
+        std::fprintf(stderr, "texture_lookup: make_texture failed: %s\n", OIIO::geterror().c_str());
+        return false;
+    }
+    return true;
+}
+
+void print_row(const char* name, int threads, bool coherent, double ns, double mib) {
+    fmt::print("{:<44} {:>10} {:>10} {:>12.1f} {:>12.1f}\n", name, threads, coherent ? "coherent" : "random", ns, mib);
+}
+
+/// Ours: 8-bit texels as the glTF loader stores them, pyramid built at load.
+void bench_ours(const std::vector<uint8_t>& px, int n, size_t count, int reps, const std::vector<int>& thread_counts) {
+    scenes::Texture tex = scenes::Texture::make("image", uint32_t(n), uint32_t(n), scenes::TexelFormat::U8, "RGB");
+    tex.srgb = true;
+    std::copy(px.begin(), px.end(), tex.data.begin());
+    scenes::gltf_detail::build_mip_pyramid(tex);
+    const double ours_mib = double(tex.data.size()) / (1024.0 * 1024.0);
+    for (const bool coherent : {false, true}) {
+        const std::vector<Query> qs = make_queries(n, count, coherent);
+        for (const auto& [name, filter] :
+             {std::pair{"ours stochastic (one level per lookup)", renderer::TextureFilter::Stochastic},
+              std::pair{"ours trilinear (two levels)", renderer::TextureFilter::Trilinear}}) {
+            for (const int threads : thread_counts) {
+                std::vector<float> sink(size_t(threads) * 16, 0.0f);
+                const double ns = ns_per_lookup(threads, reps, count, [&](int k) {
+                    float acc = 0;
+                    for (const Query& q : qs) {
+                        const float lod = renderer::uv_lod({q.dudx, q.dvdx, q.dudy, q.dvdy});
+                        acc += renderer::lookup(tex, {q.u, q.v}, lod, filter).g;
+                    }
+                    sink[size_t(k) * 16] = acc;
+                });
+                print_row(name, threads, coherent, ns, ours_mib);
+            }
+        }
+    }
+}
+
+/// OpenImageIO: one TextureSystem per source, as a renderer would hold it, with a 256 MB
+/// cache bound and trilinear, bilinear-per-level filtering.
+void bench_oiio(const char* name, const std::string& path, bool automip, int n, size_t count, int reps,
+                const std::vector<int>& thread_counts) {
+    TextureSystem* ts = TextureSystem::create(false);
+    ts->attribute("automip", automip ? 1 : 0);
+    ts->attribute("autotile", 64);
+    ts->attribute("max_memory_MB", 256.0f);
+    const ustring file(path);
+    for (const bool coherent : {false, true}) {
+        const std::vector<Query> qs = make_queries(n, count, coherent);
+        for (const int threads : thread_counts) {
+            std::vector<float> sink(size_t(threads) * 16, 0.0f);
+            const double ns = ns_per_lookup(threads, reps, count, [&](int k) {
+                TextureSystem::Perthread* pt = ts->get_perthread_info();
+                TextureSystem::TextureHandle* h = ts->get_texture_handle(file, pt);
+                TextureOpt opt;
+                opt.mipmode = TextureOpt::MipModeTrilinear;
+                opt.interpmode = TextureOpt::InterpBilinear;
+                float acc = 0, rgb[3];
+                for (const Query& q : qs) {
+                    ts->texture(h, pt, opt, q.u, q.v, q.dudx, q.dvdx, q.dudy, q.dvdy, 3, rgb);
+                    acc += rgb[1];
+                }
+                sink[size_t(k) * 16] = acc;
+            });
+            print_row(name, threads, coherent, ns, double(cache_bytes(ts)) / (1024.0 * 1024.0));
+        }
+    }
+    if (ts->has_error()) std::fprintf(stderr, "texture_lookup: %s\n", ts->geterror().c_str());
+    TextureSystem::destroy(ts);
+}
+
+/// The embedded-image route: the PNG's bytes in memory (as a .glb holds them) behind an
+/// IOProxy, registered under a made-up name with ImageCache::add_file.
+void try_ioproxy(const std::string& png) {
+    std::ifstream f(png, std::ios::binary);
+    std::vector<unsigned char> bytes((std::istreambuf_iterator<char>(f)), std::istreambuf_iterator<char>());
+    Filesystem::IOMemReader proxy(bytes.data(), bytes.size());
+    ImageSpec config;
+    config.attribute("oiio:ioproxy", TypeDesc::PTR, &proxy);
+    TextureSystem* ts = TextureSystem::create(false);
+    ts->attribute("automip", 1);
+    ts->attribute("autotile", 64);
+    const ustring name("embedded.png");
+    const bool added = ts->imagecache()->add_file(name, nullptr, &config);
+    float rgb[3] = {-1, -1, -1};
+    TextureOpt opt;
+    const bool looked = added && ts->texture(name, opt, 0.5f, 0.5f, 0, 0, 0, 0, 3, rgb);
+    fmt::print("IOProxy route (add_file with oiio:ioproxy): add_file {}, lookup {}{}\n", added ? "ok" : "failed",
+               looked ? "ok" : "failed", looked ? fmt::format(" (g = {:.4f})", rgb[1]) : std::string());
+    if (ts->has_error()) std::fprintf(stderr, "texture_lookup: IOProxy route: %s\n", ts->geterror().c_str());
+    TextureSystem::destroy(ts);
+}
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -145,114 +241,14 @@ int main(int argc, char** argv) {
     const fs::path dir = fs::temp_directory_path() / fmt::format("texture_lookup_{}", ::getpid());
     fs::create_directories(dir);
     const std::string png = (dir / "image.png").string(), tx = (dir / "image.tx").string();
-    {
-        ImageBuf buf(ImageSpec(n, n, 3, TypeDesc::UINT8), const_cast<uint8_t*>(px.data()));
-        buf.specmod().attribute("oiio:ColorSpace", "sRGB");
-        if (!buf.write(png)) {
-            std::fprintf(stderr, "texture_lookup: cannot write %s: %s\n", png.c_str(), buf.geterror().c_str());
-            return 1;
-        }
-        ImageSpec config;
-        config.attribute("maketx:filtername", "box");
-        if (!ImageBufAlgo::make_texture(ImageBufAlgo::MakeTxTexture, buf, tx, config)) {
-            std::fprintf(stderr, "texture_lookup: make_texture failed: %s\n", OIIO::geterror().c_str());
-            return 1;
-        }
-    }
+    if (!write_sources(px, n, png, tx)) return 1;
 
     fmt::print("texture lookup: {0}x{0} 8-bit sRGB RGB, {1} lookups per thread, best of {2}\n", n, count, reps);
     fmt::print("{:<44} {:>10} {:>10} {:>12} {:>12}\n", "lookup", "threads", "pattern", "ns/lookup", "MiB held");
-
-    // Ours: 8-bit texels as the glTF loader stores them, pyramid built at load.
-    const double rss0 = rss_mib();
-    scenes::Texture tex = scenes::Texture::make("image", uint32_t(n), uint32_t(n), scenes::TexelFormat::U8, "RGB");
-    tex.srgb = true;
-    std::copy(px.begin(), px.end(), tex.data.begin());
-    scenes::gltf_detail::build_mip_pyramid(tex);
-    const double ours_mib = double(tex.data.size()) / (1024.0 * 1024.0);
-    (void)rss0;
-
-    for (const bool coherent : {false, true}) {
-        const std::vector<Query> qs = make_queries(n, count, coherent);
-        const char* pattern = coherent ? "coherent" : "random";
-        for (const auto& [name, filter] :
-             {std::pair{"ours stochastic (one level per lookup)", renderer::TextureFilter::Stochastic},
-              std::pair{"ours trilinear (two levels)", renderer::TextureFilter::Trilinear}}) {
-            for (const int threads : thread_counts) {
-                std::vector<float> sink(size_t(threads) * 16, 0.0f);
-                const double ns = ns_per_lookup(threads, reps, count, [&](int k) {
-                    float acc = 0;
-                    for (const Query& q : qs) {
-                        const float lod = renderer::uv_lod({q.dudx, q.dvdx, q.dudy, q.dvdy});
-                        acc += renderer::lookup(tex, {q.u, q.v}, lod, filter).g;
-                    }
-                    sink[size_t(k) * 16] = acc;
-                });
-                fmt::print("{:<44} {:>10} {:>10} {:>12.1f} {:>12.1f}\n", name, threads, pattern, ns, ours_mib);
-            }
-        }
-    }
-
-    // OpenImageIO: one TextureSystem per source, as a renderer would hold it, with its
-    // default cache bound (256 MB) and trilinear bilinear-per-level filtering.
-    struct Source {
-        const char* name;
-        std::string path;
-        bool automip;
-    };
-    for (const Source& src : {Source{"OIIO TextureSystem, PNG (automip)", png, true},
-                              Source{"OIIO TextureSystem, .tx (tiled MIP)", tx, false}}) {
-        TextureSystem* ts = TextureSystem::create(false);
-        ts->attribute("automip", src.automip ? 1 : 0);
-        ts->attribute("autotile", 64);
-        ts->attribute("max_memory_MB", 256.0f);
-        const ustring file(src.path);
-        for (const bool coherent : {false, true}) {
-            const std::vector<Query> qs = make_queries(n, count, coherent);
-            for (const int threads : thread_counts) {
-                std::vector<float> sink(size_t(threads) * 16, 0.0f);
-                const double ns = ns_per_lookup(threads, reps, count, [&](int k) {
-                    TextureSystem::Perthread* pt = ts->get_perthread_info();
-                    TextureSystem::TextureHandle* h = ts->get_texture_handle(file, pt);
-                    TextureOpt opt;
-                    opt.mipmode = TextureOpt::MipModeTrilinear;
-                    opt.interpmode = TextureOpt::InterpBilinear;
-                    float acc = 0, rgb[3];
-                    for (const Query& q : qs) {
-                        ts->texture(h, pt, opt, q.u, q.v, q.dudx, q.dvdx, q.dudy, q.dvdy, 3, rgb);
-                        acc += rgb[1];
-                    }
-                    sink[size_t(k) * 16] = acc;
-                });
-                fmt::print("{:<44} {:>10} {:>10} {:>12.1f} {:>12.1f}\n", src.name, threads,
-                           coherent ? "coherent" : "random", ns, double(cache_bytes(ts)) / (1024.0 * 1024.0));
-            }
-        }
-        if (ts->has_error()) std::fprintf(stderr, "texture_lookup: %s\n", ts->geterror().c_str());
-        TextureSystem::destroy(ts);
-    }
-
-    // The embedded-image route: the PNG's bytes in memory (as a .glb holds them) behind an
-    // IOProxy, registered under a made-up name with ImageCache::add_file.
-    {
-        std::ifstream f(png, std::ios::binary);
-        std::vector<unsigned char> bytes((std::istreambuf_iterator<char>(f)), std::istreambuf_iterator<char>());
-        Filesystem::IOMemReader proxy(bytes.data(), bytes.size());
-        ImageSpec config;
-        config.attribute("oiio:ioproxy", TypeDesc::PTR, &proxy);
-        TextureSystem* ts = TextureSystem::create(false);
-        ts->attribute("automip", 1);
-        ts->attribute("autotile", 64);
-        const ustring name("embedded.png");
-        const bool added = ts->imagecache()->add_file(name, nullptr, &config);
-        float rgb[3] = {-1, -1, -1};
-        TextureOpt opt;
-        const bool looked = added && ts->texture(name, opt, 0.5f, 0.5f, 0, 0, 0, 0, 3, rgb);
-        fmt::print("IOProxy route (add_file with oiio:ioproxy): add_file {}, lookup {}{}\n", added ? "ok" : "failed",
-                   looked ? "ok" : "failed", looked ? fmt::format(" (g = {:.4f})", rgb[1]) : std::string());
-        if (ts->has_error()) std::fprintf(stderr, "texture_lookup: IOProxy route: %s\n", ts->geterror().c_str());
-        TextureSystem::destroy(ts);
-    }
+    bench_ours(px, n, count, reps, thread_counts);
+    bench_oiio("OIIO TextureSystem, PNG (automip)", png, true, n, count, reps, thread_counts);
+    bench_oiio("OIIO TextureSystem, .tx (tiled MIP)", tx, false, n, count, reps, thread_counts);
+    try_ioproxy(png);
     std::error_code ec;
     fs::remove_all(dir, ec);
     return 0;
