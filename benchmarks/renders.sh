@@ -50,5 +50,10 @@ if [ -f "$MIS" ]; then
   oiiotool materials_sheet.png --ch R,G,B,A=1.0 "$MIS" --resize 960x240 --ch R,G,B,A=1.0 --origin +0+480 --over \
     --ch R,G,B --fullsize 960x720 --fullpixels -o materials_sheet.png
 fi
+# The README's contact sheet, when the course renders are here too (RENDERS=all).
+if [ -f CBbunny.png ] && [ -f CBspheres_lambertian.png ]; then
+  oiiotool CBbunny.png --fit 320x240 CBspheres_lambertian.png --fit 320x240 cornell_materials.png gems_glass.png \
+    cornell_dof.png helmet_sky.png boombox_sky.png suzanne_sky.png --mosaic:pad=4 4x2 -o contact_sheet.png
+fi
 for f in *.log; do echo "${f%.log}: $(grep -h 'Render time' "$f" | sed 's/\[PathTracer\] //')"; done > TIMES.txt
 echo "renders in $OUT"
