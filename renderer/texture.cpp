@@ -85,30 +85,40 @@ inline void nearest(const Texture& t, uint32_t level, float u, float v, float w,
     add_texel<F, NC, NCOL>(t.data.data() + l.offset + (size_t(y) * l.width + x) * (NC * kBytes(F)), w, acc);
 }
 
+/// The four texel centres around uv in a level, wrapping at the edges, and uv's place
+/// between them.
+struct Corners {
+    int x0, y0, x1, y1;
+    float fx, fy;
+};
+inline Corners corners(const Texture::Level& l, float u, float v) {
+    const float x = u * float(l.width) - 0.5f, y = v * float(l.height) - 0.5f;
+    const float x0f = std::floor(x), y0f = std::floor(y);
+    Corners c{int(x0f), int(y0f), 0, 0, x - x0f, y - y0f};
+    // u in [0, 1] puts x0 in [-1, width - 1].
+    if (c.x0 < 0) c.x0 += int(l.width);
+    if (c.y0 < 0) c.y0 += int(l.height);
+    c.x0 = std::min(c.x0, int(l.width) - 1);
+    c.y0 = std::min(c.y0, int(l.height) - 1);
+    c.x1 = c.x0 + 1 == int(l.width) ? 0 : c.x0 + 1;
+    c.y1 = c.y0 + 1 == int(l.height) ? 0 : c.y0 + 1;
+    return c;
+}
+
 /// Bilinear between the four texel centres around uv, wrapping at the edges.
 template <TexelFormat F, int NC, int NCOL>
 inline void bilinear(const Texture& t, uint32_t level, float u, float v, float w, float* acc) {
     constexpr size_t tb = NC * kBytes(F);
     const Texture::Level& l = t.levels[level];
-    const float x = u * float(l.width) - 0.5f, y = v * float(l.height) - 0.5f;
-    const float x0f = std::floor(x), y0f = std::floor(y);
-    const float fx = x - x0f, fy = y - y0f;
-    // u in [0, 1] puts x0 in [-1, width - 1].
-    int x0 = int(x0f), y0 = int(y0f);
-    if (x0 < 0) x0 += int(l.width);
-    if (y0 < 0) y0 += int(l.height);
-    x0 = std::min(x0, int(l.width) - 1);
-    y0 = std::min(y0, int(l.height) - 1);
-    const int x1 = x0 + 1 == int(l.width) ? 0 : x0 + 1;
-    const int y1 = y0 + 1 == int(l.height) ? 0 : y0 + 1;
+    const Corners c = corners(l, u, v);
     const uint8_t* base = t.data.data() + l.offset;
     const size_t row = size_t(l.width) * tb;
-    const uint8_t* r0 = base + size_t(y0) * row;
-    const uint8_t* r1 = base + size_t(y1) * row;
-    add_texel<F, NC, NCOL>(r0 + size_t(x0) * tb, w * (1 - fx) * (1 - fy), acc);
-    add_texel<F, NC, NCOL>(r0 + size_t(x1) * tb, w * fx * (1 - fy), acc);
-    add_texel<F, NC, NCOL>(r1 + size_t(x0) * tb, w * (1 - fx) * fy, acc);
-    add_texel<F, NC, NCOL>(r1 + size_t(x1) * tb, w * fx * fy, acc);
+    const uint8_t* r0 = base + size_t(c.y0) * row;
+    const uint8_t* r1 = base + size_t(c.y1) * row;
+    add_texel<F, NC, NCOL>(r0 + size_t(c.x0) * tb, w * (1 - c.fx) * (1 - c.fy), acc);
+    add_texel<F, NC, NCOL>(r0 + size_t(c.x1) * tb, w * c.fx * (1 - c.fy), acc);
+    add_texel<F, NC, NCOL>(r1 + size_t(c.x0) * tb, w * (1 - c.fx) * c.fy, acc);
+    add_texel<F, NC, NCOL>(r1 + size_t(c.x1) * tb, w * c.fx * c.fy, acc);
 }
 
 /// A random number in [0, 1) for stochastic texture filtering (Pharr, Wronski, Salvi,
@@ -274,20 +284,13 @@ namespace {
 inline void prefetch_level(const Texture& t, uint32_t level, float u, float v) {
     const Texture::Level& l = t.levels[level];
     const size_t tb = t.texel_bytes();
-    const float x = u * float(l.width) - 0.5f, y = v * float(l.height) - 0.5f;
-    int x0 = int(std::floor(x)), y0 = int(std::floor(y));
-    if (x0 < 0) x0 += int(l.width);
-    if (y0 < 0) y0 += int(l.height);
-    x0 = std::min(x0, int(l.width) - 1);
-    y0 = std::min(y0, int(l.height) - 1);
-    const int x1 = x0 + 1 == int(l.width) ? 0 : x0 + 1;
-    const int y1 = y0 + 1 == int(l.height) ? 0 : y0 + 1;
+    const Corners c = corners(l, u, v);
     const uint8_t* base = t.data.data() + l.offset;
     const size_t row = size_t(l.width) * tb;
-    for (const size_t r : {size_t(y0) * row, size_t(y1) * row}) {
-        __builtin_prefetch(base + r + size_t(x0) * tb);
+    for (const size_t r : {size_t(c.y0) * row, size_t(c.y1) * row}) {
+        __builtin_prefetch(base + r + size_t(c.x0) * tb);
         // The texel's last byte: the pair may straddle a cache line.
-        __builtin_prefetch(base + r + size_t(x1) * tb + tb - 1);
+        __builtin_prefetch(base + r + size_t(c.x1) * tb + tb - 1);
     }
 }
 }  // namespace
