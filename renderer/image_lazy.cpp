@@ -39,12 +39,19 @@ fs::path locate(std::string& why) {
 const ImageModule& module() {
     static const ImageModule* table = nullptr;
     static std::string error;
+    static bool memory = false;
     static std::once_flag once;
     std::call_once(once, [] {
         if (const fs::path p = locate(error); !p.empty()) {
             void* h = dlopen(p.c_str(), RTLD_NOW | RTLD_LOCAL);
             if (!h) {
-                error = std::string("the image module cannot be loaded: ") + dlerror();
+                const std::string why = dlerror();
+                // The dynamic loader's words when mmap fails: ENOMEM, from memory or from
+                // the address-space limit.
+                memory = why.find("failed to map segment") != std::string::npos ||
+                         why.find("annot allocate memory") != std::string::npos;
+                error = (memory ? "the image libraries cannot be mapped (" + p.string() + "): "
+                                : std::string("the image module cannot be loaded: ")) + why;
                 return;
             }
             using Entry = const ImageModule* (*)();
@@ -57,11 +64,16 @@ const ImageModule& module() {
             table = t;
         }
     });
-    if (!table) throw std::runtime_error(error);
+    if (!table) {
+        if (memory) throw ImageModuleMemoryError(error);
+        throw std::runtime_error(error);
+    }
     return *table;
 }
 
 }  // namespace
+
+void load_image_module() { (void)module(); }
 
 std::string image_module_missing() {
     std::string why;

@@ -9,6 +9,9 @@
 // renderer_image directly and never load the module.
 #pragma once
 
+#include <stdexcept>
+#include <string>
+
 #include "renderer/image.h"
 
 namespace renderer {
@@ -23,6 +26,18 @@ struct ImageModule {
     void (*write_image)(const std::string& path, const Image& image, const WriteOptions& options);
     scenes::Texture (*load_environment_image)(const std::string& path);
 };
+
+/// The module could not be mapped for want of memory or address space (ulimit -v): an
+/// out-of-memory failure, not a missing or broken installation.
+class ImageModuleMemoryError : public std::runtime_error {
+public:
+    using std::runtime_error::runtime_error;
+};
+
+/// In programs that link renderer_image_lazy: loads the module now rather than at the
+/// first image file. Throws ImageModuleMemoryError or std::runtime_error as a lazy load
+/// would.
+void load_image_module();
 
 /// In programs that link renderer_image_lazy: empty when the module is where it will be
 /// loaded from, else why not (checked with the outputs, before any work; nothing loaded).

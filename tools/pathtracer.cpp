@@ -7,6 +7,7 @@
 #include <CLI/CLI.hpp>
 #include <fmt/format.h>
 #include <malloc.h>
+#include <sys/resource.h>
 
 #include <algorithm>
 #include <atomic>
@@ -426,6 +427,9 @@ void write_main_image(const Options& o, const renderer::RenderResult& result, bo
         renderer::write_image(o.output, result.image, wo);
     } catch (const std::bad_alloc& e) {
         mem::out_of_memory(e);
+    } catch (const renderer::ImageModuleMemoryError& e) {
+        std::fprintf(stderr, "\n");
+        mem::refuse(fmt::format("{}, to write {}", e.what(), o.output));
     } catch (const std::exception& e) {
         std::fprintf(stderr, "\n");
         fail(e.what());
@@ -456,6 +460,8 @@ void write_side_images(const Options& o, const renderer::RenderResult& result) {
             renderer::write_image(path, renderer::heat_map(v, rs.width, rs.height, 0.0f, hi), ho);
         } catch (const std::bad_alloc& e) {
             mem::out_of_memory(e);
+        } catch (const renderer::ImageModuleMemoryError& e) {
+            mem::refuse(fmt::format("{}, to write {}", e.what(), path));
         } catch (const std::exception& e) {
             fail(e.what());
         }
@@ -492,6 +498,23 @@ void check_outputs(const Options& o, const dist::World& world) {
     if (!o.checkpoint.empty())
         if (const std::string why = tools::check_writable("--checkpoint", o.checkpoint); !why.empty())
             fail(why);
+}
+
+/// Under an address-space limit (ulimit -v) the image libraries' mappings are what the save
+/// can run out of, hours later: they are mapped before the render, so such a run fails
+/// before any work instead of losing it. Without one they load at the save, after the
+/// scene is freed (renderer/image_module.h).
+void map_image_libraries_if_limited(const dist::World& world) {
+    rlimit as{};
+    if (!world.root() || getrlimit(RLIMIT_AS, &as) != 0 || as.rlim_cur == RLIM_INFINITY) return;
+    const mem::Stage stage("loading the image libraries");
+    try {
+        renderer::load_image_module();
+    } catch (const renderer::ImageModuleMemoryError& e) {
+        mem::refuse(fmt::format("{} (ulimit -v {} KiB); refused before the render", e.what(), as.rlim_cur / 1024));
+    } catch (const std::exception& e) {
+        fail(e.what());
+    }
 }
 
 uint64_t gib_bytes(double gib) { return uint64_t(gib * 1024.0 * 1024.0 * 1024.0); }
@@ -673,6 +696,8 @@ int main(int argc, char** argv) {
     } catch (const std::bad_alloc& e) {
         mem::out_of_memory(e);
     }
+
+    map_image_libraries_if_limited(world);
 
     // Run.
     std::signal(SIGINT, on_sigint);
