@@ -24,6 +24,7 @@
 #include <algorithm>
 #include <thread>
 
+#include <fcntl.h>
 #include <unistd.h>
 
 namespace dist {
@@ -35,7 +36,7 @@ enum Tag : int { kRequest = 1, kTile, kResult, kBye, kGather };
 bool g_active = false, g_finalized = false;
 World g_world;
 int g_stderr = -1;        // the real stderr of a rank != 0
-std::string g_log;        // that rank's stderr (unlinked once open)
+std::string g_log;        // that rank's stderr when it has a name (unlinked once open)
 const char* g_prog = "pathtracer";
 int g_abort_status = 2;   // what mpirun exits with when a rank stops the job
 
@@ -200,10 +201,16 @@ World init(int& argc, char**& argv, const char* prog) {
     }
     if (!g_world.root()) {
         const char* dir = std::getenv("TMPDIR");
-        g_log = fmt::format("{}/{}-rank{}-{}.log", dir ? dir : "/tmp", prog, g_world.rank, ::getpid());
+        const std::string folder = dir ? dir : "/tmp";
         std::fflush(stderr);
         g_stderr = ::dup(2);
-        if (!std::freopen(g_log.c_str(), "w+", stderr)) {
+        // An unnamed file (O_TMPFILE): a rank killed at any moment leaves nothing behind.
+        // Where the file system has none, a named file unlinked at once.
+        if (const int fd = ::open(folder.c_str(), O_TMPFILE | O_RDWR, 0600); fd >= 0) {
+            ::dup2(fd, 2);
+            ::close(fd);
+        } else if (g_log = fmt::format("{}/{}-rank{}-{}.log", folder, prog, g_world.rank, ::getpid());
+                   !std::freopen(g_log.c_str(), "w+", stderr)) {
             ::dup2(g_stderr, 2);
             g_stderr = -1;
         } else {
