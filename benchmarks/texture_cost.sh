@@ -2,7 +2,7 @@
 # What textured renders cost against another build of pathtracer (a baseline binary):
 # render time and peak resident memory of DamagedHelmet, BoomBox and the twelve-texture
 # helmet (made by scene_memory --write-helmet12), 400x400, 16 spp, 2 threads, each
-# round running the baseline, then this build's trilinear and stochastic filters.
+# round running the baseline, then this build's trilinear, stochastic and nearest filters.
 # Prints per scene and filter the median and range of the per-round time ratio
 # (this build / baseline, "Render time" lines) and the median peak RSS of each.
 # Usage: benchmarks/texture_cost.sh [--quick] BASELINE_PATHTRACER [BUILD_DIR] [ROUNDS]
@@ -23,7 +23,7 @@ TMP=$(mktemp -d); trap 'rm -rf "$TMP"' EXIT
 scenes=("$G/DamagedHelmet.glb" "$G/BoomBox/BoomBox.gltf" "$TMP/Helmet12.glb")
 for r in $(seq "$ROUNDS"); do
   for s in "${scenes[@]}"; do
-    for v in baseline trilinear stochastic; do
+    for v in baseline trilinear stochastic nearest; do
       if [ $v = baseline ]; then cmd=("$BASE"); else cmd=("$PT" --texture-filter $v); fi
       /usr/bin/time -f "%M" -o "$TMP/rss" "${cmd[@]}" -q "${size[@]}" -t 2 -f "$TMP/x.png" "$s" >"$TMP/out" 2>/dev/null
       echo "$(basename "$s") $v $(grep -o 'Render time [0-9.]*' "$TMP/out" | awk '{print $3}') $(cat "$TMP/rss")"
@@ -40,8 +40,8 @@ awk -v rounds="$ROUNDS" '
       s = order[i]; b = s SUBSEP "baseline"
       for (r = 1; r <= n[b]; r++) mb[r] = m[b, r] / 1000
       base_rss = median(mb, n[b])
-      split("trilinear stochastic", fs, " ")
-      for (f = 1; f <= 2; f++) {
+      split("trilinear stochastic nearest", fs, " ")
+      for (f = 1; f <= 3; f++) {
         k = s SUBSEP fs[f]; lo = 1e9; hi = 0
         for (r = 1; r <= n[k]; r++) { q[r] = t[k, r] / t[b, r]; if (q[r] < lo) lo = q[r]; if (q[r] > hi) hi = q[r]; mm[r] = m[k, r] / 1000 }
         printf "| %s | %s | %.3f (%.3f-%.3f) | %.0f | %.0f |\n", s, fs[f], median(q, n[k]), lo, hi, base_rss, median(mm, n[k])
