@@ -73,7 +73,7 @@ base_kb=$(awk '/^VmPeak/{print $2}' /proc/$pid/status); kill -9 $pid; wait $pid 
 for accel in custom embree; do
   limit_kb=$(( base_kb + 300 * 1024 ))
   run "ulimit -v $limit_kb, --accel $accel" 3 \
-    "^pathtracer: error: out of memory (while (loading the scene|building the BVH): .*[0-9]+ bytes|: the image libraries cannot be mapped .*refused before the render)" -- \
+    "^pathtracer: error: out of memory( while (loading the scene|building the BVH): .*[0-9]+ bytes|: the image libraries cannot be mapped .*refused before the render)" -- \
     bash -c "ulimit -v $limit_kb; exec \"$PT\" --accel $accel -r 32 24 -s 1 -f \"$TMP/v.png\" \"$TMP/big.glb\""
   grep '^pathtracer: error' "$TMP/err" | sed 's/^/     /'
   [ "$(grep -c '^pathtracer: error' "$TMP/err")" -eq 1 ] || fail "ulimit -v --accel $accel: not one error line"
