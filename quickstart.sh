@@ -16,6 +16,7 @@ PACKAGES=(
   libcli11-dev libfmt-dev libgtest-dev libgmock-dev libbenchmark-dev
   libdraco-dev                 # KHR_draco_mesh_compression in glTF files
   libopenmpi-dev openmpi-bin   # optional at configure time: mpirun renders across machines
+  time                         # /usr/bin/time: the memory benchmarks' peak-RSS measurements
 )
 BUILD_DIR=${PT_BUILD_DIR:-build}
 JOBS=${PT_JOBS:-$(nproc)}
