@@ -27,15 +27,8 @@ const char* texture_filter_name(TextureFilter f) {
 }
 
 namespace {
-// Built before main: lookups read it without a guard.
-const std::array<float, 256> kSrgb8 = [] {
-    std::array<float, 256> t{};
-    for (int i = 0; i < 256; ++i) {
-        const float c = float(i) / 255.0f;
-        t[size_t(i)] = c <= 0.04045f ? c / 12.92f : std::pow((c + 0.055f) / 1.055f, 2.4f);
-    }
-    return t;
-}();
+// Bound before main: lookups read the table without a guard.
+const std::array<float, 256>& kSrgb8 = scenes::srgb8_to_linear();
 }  // namespace
 
 const float* srgb8_to_linear_table() { return kSrgb8.data(); }

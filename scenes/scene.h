@@ -3,6 +3,8 @@
 // scenes/gltf) depend on this header and nothing else of scenes/.
 #pragma once
 
+#include <array>
+#include <cmath>
 #include <cstddef>
 #include <cstdint>
 #include <cstring>
@@ -52,6 +54,22 @@ inline uint16_t float_to_half(float f) {
     }
     const uint32_t r = x + 0xFFFu + ((x >> 13) & 1u);
     return uint16_t(sign | uint16_t((r - 0x38000000u) >> 13));
+}
+
+/// sRGB-encoded value in [0, 1] to linear, the IEC 61966-2-1 curve: how the codes of a
+/// Texture with `srgb` set decode.
+inline float srgb_to_linear(float c) {
+    return c <= 0.04045f ? c / 12.92f : std::pow((c + 0.055f) / 1.055f, 2.4f);
+}
+
+/// The 256 8-bit sRGB codes, decoded: the loaders and the renderer's lookups share it.
+inline const std::array<float, 256>& srgb8_to_linear() {
+    static const std::array<float, 256> table = [] {
+        std::array<float, 256> t{};
+        for (int i = 0; i < 256; ++i) t[size_t(i)] = srgb_to_linear(float(i) / 255.0f);
+        return t;
+    }();
+    return table;
 }
 
 /// How a texture's texels are stored: at the source's precision, never wider. 8- and

@@ -17,15 +17,6 @@ uint32_t be32(const unsigned char* p) {
 }
 uint32_t be16(const unsigned char* p) { return (uint32_t(p[0]) << 8) | p[1]; }
 
-const std::array<float, 256>& srgb8_table() {
-    static const std::array<float, 256> table = [] {
-        std::array<float, 256> t{};
-        for (int i = 0; i < 256; ++i) t[size_t(i)] = srgb_to_linear(float(i) / 255.0f);
-        return t;
-    }();
-    return table;
-}
-
 bool peek_jpeg(const unsigned char* b, size_t n, uint32_t& w, uint32_t& h) {
     size_t i = 2;  // after SOI
     while (i + 4 <= n) {
@@ -80,10 +71,6 @@ bool peek_image_size(const unsigned char* b, size_t n, uint32_t& w, uint32_t& h,
     return false;
 }
 
-float srgb_to_linear(float c) {
-    return c <= 0.04045f ? c / 12.92f : std::pow((c + 0.055f) / 1.055f, 2.4f);
-}
-
 namespace {
 
 /// Linear value to the nearest 8-bit sRGB code, through a 16-bit table: its step,
@@ -123,7 +110,7 @@ void fill_levels(Texture& t) {
     const size_t nc = t.channels, cb = texel_format_bytes(t.format);
     // Stored channels that hold sRGB-encoded colour: all but a stored alpha.
     const size_t ncolour = t.srgb ? (t.slot[3] >= 0 ? nc - 1 : nc) : 0;
-    const auto& lut = srgb8_table();
+    const auto& lut = srgb8_to_linear();
     const auto& enc = linear_to_srgb8_table();
     auto load = [&](const uint8_t* p, size_t c) -> float {
         switch (t.format) {

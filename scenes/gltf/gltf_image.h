@@ -30,9 +30,6 @@ bool peek_image_size(const unsigned char* bytes, size_t size, uint32_t& width,
 bool decode_texture(const unsigned char* bytes, size_t size, const char* channels, bool srgb,
                     Texture& out, std::string& why);
 
-/// sRGB-encoded value (0..1) to linear, the IEC 61966-2-1 curve.
-float srgb_to_linear(float c);
-
 /// Appends the MIP pyramid to a texture that holds level 0 alone: each level halves the
 /// one above (at least 1 texel) with a 2x2 box, averaged in linear values (sRGB texels
 /// decoded, averaged, re-encoded), as in Williams, "Pyramidal parametrics" (SIGGRAPH

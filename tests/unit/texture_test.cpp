@@ -43,7 +43,7 @@ Pair random_pair(uint32_t w, uint32_t h, bool srgb, uint32_t seed) {
                 const int code = std::clamp(int(smooth * 255.0f) + int(rng() % 41) - 20, 0, 255);
                 const size_t i = (size_t(y) * w + x) * 4 + size_t(c);
                 p.u8.data[i] = uint8_t(code);
-                const float v = srgb && c < 3 ? scenes::gltf_detail::srgb_to_linear(float(code) / 255.0f)
+                const float v = srgb && c < 3 ? scenes::srgb_to_linear(float(code) / 255.0f)
                                               : float(code) / 255.0f;
                 std::memcpy(&p.f32.data[i * 4], &v, 4);
             }
