@@ -29,12 +29,6 @@ void set_texture_footprint(Interaction& it, const PixelSpread& spread, TextureFi
     it.lod = uv_lod(uv_footprint(it.dpdu, it.dpdv, dpdx, dpdy));
 }
 
-void prefetch_textures(const scenes::Scene& scene, const scenes::Material& m, const Interaction& it) {
-    for (const uint32_t tex : {m.normal_texture, m.albedo_texture, m.metallic_roughness_texture,
-                               m.emission_texture, m.transmission_texture})
-        if (tex < scene.textures.size()) prefetch(scene.textures[tex], it.uv, it.lod, it.filter);
-}
-
 void triangle_point(const Vec3f& p0, const Vec3f& p1, const Vec3f& p2, float u, float v, Vec3f& p,
                     Vec3f& p_error) {
     const float b0 = 1.0f - u - v;

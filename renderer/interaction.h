@@ -58,10 +58,6 @@ inline bool is_textured(const scenes::Material& m) {
 void set_texture_footprint(Interaction& it, const PixelSpread& spread, TextureFilter filter, bool camera_ray,
                            const Vec3f& dir);
 
-/// Starts loading the texels every texture of material m will be read at for `it`
-/// (renderer/texture.h prefetch): the shading that follows then finds them in cache.
-void prefetch_textures(const scenes::Scene& scene, const scenes::Material& m, const Interaction& it);
-
 /// Hit point rebuilt from the barycentrics of triangle (p0, p1, p2), with its error
 /// bound: pbrt-v4 Triangle::InteractionFromIntersection, p = b0 p0 + b1 p1 + b2 p2 and
 /// p_error = gamma(7) (|b0 p0| + |b1 p1| + |b2 p2|). Rebuilding p from barycentrics

@@ -84,7 +84,7 @@ struct Corners {
     int x0, y0, x1, y1;
     float fx, fy;
 };
-inline Corners corners(const Texture::Level& l, float u, float v) {
+[[gnu::always_inline]] inline Corners corners(const Texture::Level& l, float u, float v) {
     const float x = u * float(l.width) - 0.5f, y = v * float(l.height) - 0.5f;
     const float x0f = std::floor(x), y0f = std::floor(y);
     Corners c{int(x0f), int(y0f), 0, 0, x - x0f, y - y0f};
@@ -98,9 +98,10 @@ inline Corners corners(const Texture::Level& l, float u, float v) {
     return c;
 }
 
-/// Bilinear between the four texel centres around uv, wrapping at the edges.
+/// Bilinear between the four texel centres around uv, wrapping at the edges. Inlined
+/// into every kernel, so that a trilinear lookup is one call with one accumulator.
 template <TexelFormat F, int NC, int NCOL>
-inline void bilinear(const Texture& t, uint32_t level, float u, float v, float w, float* acc) {
+[[gnu::always_inline]] inline void bilinear(const Texture& t, uint32_t level, float u, float v, float w, float* acc) {
     constexpr size_t tb = NC * kBytes(F);
     const Texture::Level& l = t.levels[level];
     const Corners c = corners(l, u, v);
@@ -108,18 +109,18 @@ inline void bilinear(const Texture& t, uint32_t level, float u, float v, float w
     const size_t row = size_t(l.width) * tb;
     const uint8_t* r0 = base + size_t(c.y0) * row;
     const uint8_t* r1 = base + size_t(c.y1) * row;
-    add_texel<F, NC, NCOL>(r0 + size_t(c.x0) * tb, w * (1 - c.fx) * (1 - c.fy), acc);
-    add_texel<F, NC, NCOL>(r0 + size_t(c.x1) * tb, w * c.fx * (1 - c.fy), acc);
-    add_texel<F, NC, NCOL>(r1 + size_t(c.x0) * tb, w * (1 - c.fx) * c.fy, acc);
-    add_texel<F, NC, NCOL>(r1 + size_t(c.x1) * tb, w * c.fx * c.fy, acc);
+    const float wx1 = c.fx, wx0 = 1.0f - c.fx, wy1 = w * c.fy, wy0 = w - wy1;
+    add_texel<F, NC, NCOL>(r0 + size_t(c.x0) * tb, wx0 * wy0, acc);
+    add_texel<F, NC, NCOL>(r0 + size_t(c.x1) * tb, wx1 * wy0, acc);
+    add_texel<F, NC, NCOL>(r1 + size_t(c.x0) * tb, wx0 * wy1, acc);
+    add_texel<F, NC, NCOL>(r1 + size_t(c.x1) * tb, wx1 * wy1, acc);
 }
 
 /// A random number in [0, 1) for stochastic texture filtering (Pharr, Wronski, Salvi,
 /// Fajardo, "Filtering After Shading With Stochastic Texture Filtering", I3D 2024,
 /// section 3) that picks one of the two levels a trilinear lookup blends, l0 + 1
 /// with probability d. The expected value is the blend, while a lookup reads four texels
-/// instead of eight: on a large image every level is a separate cache miss, and the
-/// second one made trilinear slower than the nearest-texel lookups it replaced.
+/// instead of eight.
 /// The number hashes the lookup's uv bits (an LCG step and xorshift mixing, after pcg2d
 /// in Jarzynski and Olano, "Hash Functions for GPU Rendering", JCGT 2020): the samples
 /// of a pixel hit different points and so draw independently, the textures of one hit
@@ -137,80 +138,66 @@ inline float level_choice(float u, float v) {
     return float(a >> 8) * 0x1p-24f;
 }
 
+/// One filtered lookup at wrapped (u, v), with the texel layout known at compile time.
 template <TexelFormat F, int NC, int NCOL>
-void filter(const Texture& t, float u, float v, float lod, TextureFilter f, float* acc) {
-    switch (f) {
-        case TextureFilter::Nearest: nearest<F, NC, NCOL>(t, 0, u, v, 1.0f, acc); return;
-        case TextureFilter::Bilinear: bilinear<F, NC, NCOL>(t, 0, u, v, 1.0f, acc); return;
-        case TextureFilter::Stochastic: {
-            const float level = mip_level(t, lod);
-            const uint32_t l0 = uint32_t(level);
-            const float d = level - float(l0);
-            if (d <= 0.0f || l0 + 1 >= t.levels.size())
-                bilinear<F, NC, NCOL>(t, std::min<uint32_t>(l0, uint32_t(t.levels.size() - 1)), u, v, 1.0f, acc);
-            else
-                bilinear<F, NC, NCOL>(t, level_choice(u, v) < d ? l0 + 1 : l0, u, v, 1.0f, acc);
-            return;
-        }
-        case TextureFilter::Trilinear: {
-            const float level = mip_level(t, lod);
-            const uint32_t l0 = uint32_t(level);
-            const float d = level - float(l0);
-            if (d <= 0.0f || l0 + 1 >= t.levels.size()) {
-                bilinear<F, NC, NCOL>(t, std::min<uint32_t>(l0, uint32_t(t.levels.size() - 1)), u, v, 1.0f, acc);
-            } else {
-                bilinear<F, NC, NCOL>(t, l0, u, v, 1.0f - d, acc);
-                bilinear<F, NC, NCOL>(t, l0 + 1, u, v, d, acc);
-            }
-            return;
-        }
+[[gnu::always_inline]] inline void filter(const Texture& t, float u, float v, float lod, TextureFilter f, float* acc) {
+    if (f == TextureFilter::Nearest) {
+        nearest<F, NC, NCOL>(t, 0, u, v, 1.0f, acc);
+        return;
     }
-}
-
-using FilterFn = void (*)(const Texture&, float, float, float, TextureFilter, float*);
-using FetchFn = void (*)(const uint8_t*, float, float*);
-
-struct Kernels {
-    FilterFn filter = nullptr;
-    FetchFn fetch = nullptr;
-};
-
-template <TexelFormat F, int NC, int NCOL>
-constexpr Kernels kernels() {
-    return {filter<F, NC, NCOL>, add_texel<F, NC, NCOL>};
-}
-
-/// One instance per (format, stored channels, sRGB channels): the inner loops unroll and
-/// the sRGB test leaves them.
-template <TexelFormat F>
-Kernels pick_kernels(int nc, int ncol) {
-    switch (nc * 8 + ncol) {
-        case 1 * 8 + 0: return kernels<F, 1, 0>();
-        case 2 * 8 + 0: return kernels<F, 2, 0>();
-        case 3 * 8 + 0: return kernels<F, 3, 0>();
-        case 4 * 8 + 0: return kernels<F, 4, 0>();
-        case 1 * 8 + 1: return kernels<F, 1, 1>();
-        case 2 * 8 + 1: return kernels<F, 2, 1>();
-        case 2 * 8 + 2: return kernels<F, 2, 2>();
-        case 3 * 8 + 2: return kernels<F, 3, 2>();
-        case 3 * 8 + 3: return kernels<F, 3, 3>();
-        case 4 * 8 + 3: return kernels<F, 4, 3>();
-        default: return {};
+    if (f == TextureFilter::Bilinear) {
+        bilinear<F, NC, NCOL>(t, 0, u, v, 1.0f, acc);
+        return;
+    }
+    const float level = mip_level(t, lod);
+    const uint32_t l0 = uint32_t(level);
+    const float d = level - float(l0);
+    // mip_level clamps to the top level, so l0 + 1 exists whenever d > 0.
+    if (!(d > 0.0f)) {
+        bilinear<F, NC, NCOL>(t, l0, u, v, 1.0f, acc);
+    } else if (f == TextureFilter::Stochastic) {
+        bilinear<F, NC, NCOL>(t, level_choice(u, v) < d ? l0 + 1 : l0, u, v, 1.0f, acc);
+    } else {
+        bilinear<F, NC, NCOL>(t, l0, u, v, 1.0f - d, acc);
+        bilinear<F, NC, NCOL>(t, l0 + 1, u, v, d, acc);
     }
 }
 
 int srgb_channels(const Texture& t) { return t.srgb ? (t.slot[3] >= 0 ? t.channels - 1 : t.channels) : 0; }
 
-Kernels pick(const Texture& t) {
-    // sRGB applies to 8-bit texels only (decode_texture decodes wider ones at load).
-    const int ncol = t.format == TexelFormat::U8 ? srgb_channels(t) : 0;
-    switch (t.format) {
-        case TexelFormat::U8: return pick_kernels<TexelFormat::U8>(t.channels, ncol);
-        case TexelFormat::U16: return pick_kernels<TexelFormat::U16>(t.channels, ncol);
-        case TexelFormat::F16: return pick_kernels<TexelFormat::F16>(t.channels, ncol);
-        case TexelFormat::F32: return pick_kernels<TexelFormat::F32>(t.channels, ncol);
+/// The kernel a texture's layout selects: format, stored channels and sRGB channels
+/// (sRGB applies to 8-bit texels only; decode_texture decodes wider ones at load).
+constexpr int kernel_key(TexelFormat f, int nc, int ncol) { return (int(f) * 8 + nc) * 8 + ncol; }
+inline int kernel_key(const Texture& t) {
+    return kernel_key(t.format, t.channels, t.format == TexelFormat::U8 ? srgb_channels(t) : 0);
+}
+
+/// Calls body.template operator()<F, NC, NCOL>() for the texture's layout: one switch
+/// per lookup, each instance with its channel loop unrolled and no sRGB test. False for
+/// a layout no loader makes.
+template <class Body>
+[[gnu::always_inline]] inline bool dispatch(const Texture& t, Body&& body) {
+#define PT_TEXEL_KERNEL(F, NC, NCOL)                          \
+    case kernel_key(TexelFormat::F, NC, NCOL):                \
+        body.template operator()<TexelFormat::F, NC, NCOL>(); \
+        return true;
+#define PT_TEXEL_KERNELS(F) \
+    PT_TEXEL_KERNEL(F, 1, 0) PT_TEXEL_KERNEL(F, 2, 0) PT_TEXEL_KERNEL(F, 3, 0) PT_TEXEL_KERNEL(F, 4, 0)
+    switch (kernel_key(t)) {
+        PT_TEXEL_KERNELS(U8)
+        PT_TEXEL_KERNELS(U16)
+        PT_TEXEL_KERNELS(F16)
+        PT_TEXEL_KERNELS(F32)
+        PT_TEXEL_KERNEL(U8, 1, 1)
+        PT_TEXEL_KERNEL(U8, 2, 1)
+        PT_TEXEL_KERNEL(U8, 2, 2)
+        PT_TEXEL_KERNEL(U8, 3, 2)
+        PT_TEXEL_KERNEL(U8, 3, 3)
+        PT_TEXEL_KERNEL(U8, 4, 3)
+        default: return false;
     }
-    return {};
+#undef PT_TEXEL_KERNELS
+#undef PT_TEXEL_KERNEL
 }
 
 Texel4 to_source_channels(const Texture& t, const float* acc) {
@@ -252,61 +239,24 @@ float mip_level(const Texture& t, float lod) {
 float mip_level(const Texture& t, const UvFootprint& duv) { return mip_level(t, uv_lod(duv)); }
 
 Texel4 fetch(const Texture& t, uint32_t level, uint32_t x, uint32_t y) {
-    const Kernels k = pick(t);
-    if (!k.fetch) return Texel4{1.0f, 1.0f, 1.0f, 1.0f};
     float acc[4] = {0, 0, 0, 0};
-    k.fetch(t.texel(level, x, y), 1.0f, acc);
+    const uint8_t* p = t.texel(level, x, y);
+    if (!dispatch(t, [&]<TexelFormat F, int NC, int NCOL>() { add_texel<F, NC, NCOL>(p, 1.0f, acc); }))
+        return Texel4{1.0f, 1.0f, 1.0f, 1.0f};
     return to_source_channels(t, acc);
 }
 
-Texel4 lookup(const Texture& t, const Vec2f& uv, float lod, TextureFilter filter) {
+Texel4 lookup(const Texture& t, const Vec2f& uv, float lod, TextureFilter f) {
     if (t.empty()) return Texel4{1.0f, 1.0f, 1.0f, 1.0f};
-    const Kernels k = pick(t);
-    if (!k.filter) return Texel4{1.0f, 1.0f, 1.0f, 1.0f};
     float acc[4] = {0, 0, 0, 0};
-    k.filter(t, wrap01(uv.x), wrap01(uv.y), lod, filter, acc);
+    const float u = wrap01(uv.x), v = wrap01(uv.y);
+    if (!dispatch(t, [&]<TexelFormat F, int NC, int NCOL>() { filter<F, NC, NCOL>(t, u, v, lod, f, acc); }))
+        return Texel4{1.0f, 1.0f, 1.0f, 1.0f};
     return to_source_channels(t, acc);
 }
 
 Texel4 lookup(const Texture& t, const Vec2f& uv, const UvFootprint& duv, TextureFilter filter) {
     return lookup(t, uv, uv_lod(duv), filter);
-}
-
-namespace {
-/// Starts loading the 2x2 texels a bilinear lookup at (u, v) reads from `level`.
-inline void prefetch_level(const Texture& t, uint32_t level, float u, float v) {
-    const Texture::Level& l = t.levels[level];
-    const size_t tb = t.texel_bytes();
-    const Corners c = corners(l, u, v);
-    const uint8_t* base = t.data.data() + l.offset;
-    const size_t row = size_t(l.width) * tb;
-    for (const size_t r : {size_t(c.y0) * row, size_t(c.y1) * row}) {
-        __builtin_prefetch(base + r + size_t(c.x0) * tb);
-        // The texel's last byte: the pair may straddle a cache line.
-        __builtin_prefetch(base + r + size_t(c.x1) * tb + tb - 1);
-    }
-}
-}  // namespace
-
-void prefetch(const Texture& t, const Vec2f& uv, float lod, TextureFilter filter) {
-    if (t.empty()) return;
-    const float u = wrap01(uv.x), v = wrap01(uv.y);
-    if (filter == TextureFilter::Nearest || filter == TextureFilter::Bilinear) {
-        prefetch_level(t, 0, u, v);
-        return;
-    }
-    const float level = mip_level(t, lod);
-    const uint32_t l0 = std::min<uint32_t>(uint32_t(level), uint32_t(t.levels.size() - 1));
-    const float d = level - float(l0);
-    const bool two = d > 0.0f && l0 + 1 < t.levels.size();
-    if (!two) {
-        prefetch_level(t, l0, u, v);
-    } else if (filter == TextureFilter::Trilinear) {
-        prefetch_level(t, l0, u, v);
-        prefetch_level(t, l0 + 1, u, v);
-    } else {
-        prefetch_level(t, level_choice(u, v) < d ? l0 + 1 : l0, u, v);
-    }
 }
 
 namespace {

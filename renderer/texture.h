@@ -70,11 +70,6 @@ float uv_lod(const UvFootprint& duv);
 Texel4 lookup(const scenes::Texture& t, const Vec2f& uv, float lod, TextureFilter filter);
 Texel4 lookup(const scenes::Texture& t, const Vec2f& uv, const UvFootprint& duv, TextureFilter filter);
 
-/// Starts loading, without waiting, the texels lookup(t, uv, lod, filter) will read. A
-/// hit reads up to five textures one after another, each a cache miss on a large image;
-/// prefetching them all first lets the misses overlap instead of queueing.
-void prefetch(const scenes::Texture& t, const Vec2f& uv, float lod, TextureFilter filter);
-
 /// One texel of one level, unfiltered (x < that level's width, y < its height).
 Texel4 fetch(const scenes::Texture& t, uint32_t level, uint32_t x, uint32_t y);
 

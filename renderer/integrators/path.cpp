@@ -70,12 +70,9 @@ PathIntegrator::PathIntegrator(const scenes::Scene& scene, const SceneGeometry& 
     }
 }
 
-void PathIntegrator::footprint(Interaction& it, bool camera, const Vec3f& dir, bool shade) const {
-    if (!textured_ || it.material >= scene_.materials.size()) return;
-    const scenes::Material& m = scene_.materials[it.material];
-    if (!is_textured(m)) return;
+void PathIntegrator::footprint(Interaction& it, bool camera, const Vec3f& dir) const {
+    if (!textured_ || it.material >= scene_.materials.size() || !is_textured(scene_.materials[it.material])) return;
     set_texture_footprint(it, s_.pixel_spread, s_.texture_filter, camera, dir);
-    if (shade) prefetch_textures(scene_, m, it);
 }
 
 bool PathIntegrator::counts(int bounce) const {
@@ -293,7 +290,7 @@ Vec3f PathIntegrator::direct_hemisphere(const Interaction& it, const Vec3f& albe
         Vec3f Le;
         if (ctx.accel.intersect(ray, hit, ctx.stats)) {
             Interaction e = make_interaction(scene_, geometry_, ray, hit);
-            if (textured_) footprint(e, false, wi, false);
+            if (textured_) footprint(e, false, wi);
             Le = lights_.emitted(e, -wi);
         }
         else

@@ -45,9 +45,8 @@ private:
     /// Does any material read a texture? Untextured scenes compute no footprint.
     bool textured_ = false;
     /// The texture footprint of a hit, for textured materials only. `camera`: found by
-    /// the camera ray of direction `dir`. `shade`: the hit will be shaded (its material's
-    /// textures are prefetched); false where only its emission is read.
-    void footprint(Interaction& it, bool camera, const Vec3f& dir, bool shade = true) const;
+    /// the camera ray of direction `dir`.
+    void footprint(Interaction& it, bool camera, const Vec3f& dir) const;
 };
 
 }  // namespace renderer
