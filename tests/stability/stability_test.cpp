@@ -4,6 +4,7 @@
 // behaviour only, no timings.
 #include <gtest/gtest.h>
 
+#include <bit>
 #include <cmath>
 #include <filesystem>
 #include <limits>
@@ -14,6 +15,7 @@
 #include "renderer/lights.h"
 #include "renderer/render.h"
 #include "renderer/scene_geometry.h"
+#include "renderer/spawn.h"
 
 using namespace extremes;
 
@@ -293,4 +295,24 @@ TEST(NaN, NanVertexIsDroppedAndNoPixelIsNaN) {
         EXPECT_FALSE(acc->intersect(r, h, st));
         EXPECT_FALSE(acc->occluded(r, st));
     }
+}
+
+TEST(Offsets, NextFloatMatchesNextafterOnEveryKindOfFloat) {
+    // The bit-stepping next_float_up/down (renderer/spawn.h) against libm's nextafter:
+    // zeros of both signs, denormals, normals of both signs, the largest finite float
+    // (stepping up gives +inf), infinities and NaN, and a sweep of bit patterns.
+    const float inf = std::numeric_limits<float>::infinity();
+    std::vector<float> v = {0.0f, -0.0f, std::numeric_limits<float>::denorm_min(), -std::numeric_limits<float>::denorm_min(),
+                            std::numeric_limits<float>::min(), -std::numeric_limits<float>::min(), 1.0f, -1.0f,
+                            std::numeric_limits<float>::max(), -std::numeric_limits<float>::max(), inf, -inf};
+    for (uint32_t b = 1; b < 0xFF800000u; b += 0x00012345u) v.push_back(std::bit_cast<float>(b));
+    for (const float x : v) {
+        if (std::isnan(x)) continue;  // checked below: libm quiets a signalling NaN
+        const float up = std::nextafter(x == 0.0f ? 0.0f : x, inf), down = std::nextafter(x == 0.0f ? -0.0f : x, -inf);
+        EXPECT_EQ(std::bit_cast<uint32_t>(renderer::next_float_up(x)), std::bit_cast<uint32_t>(x == inf ? inf : up)) << x;
+        EXPECT_EQ(std::bit_cast<uint32_t>(renderer::next_float_down(x)), std::bit_cast<uint32_t>(x == -inf ? -inf : down))
+            << x;
+    }
+    EXPECT_TRUE(std::isnan(renderer::next_float_up(std::numeric_limits<float>::quiet_NaN())));
+    EXPECT_TRUE(std::isnan(renderer::next_float_down(std::numeric_limits<float>::quiet_NaN())));
 }
