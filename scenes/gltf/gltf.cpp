@@ -42,7 +42,8 @@ constexpr uint64_t kMaxExternalFileBytes = uint64_t(1) << 31;
 constexpr double kRadToDeg = 57.295779513082320876798;
 
 const std::set<std::string>& supported_extensions() {
-    static const std::set<std::string> s = {"KHR_draco_mesh_compression",
+    static const std::set<std::string> s = {"EXT_mesh_gpu_instancing",
+                                            "KHR_draco_mesh_compression",
                                             "KHR_lights_punctual",
                                             "KHR_materials_emissive_strength",
                                             "KHR_materials_unlit",
@@ -308,6 +309,15 @@ constexpr AttributeRule kNormalRule{"NORMAL", TINYGLTF_TYPE_VEC3, kCtFloat | kCt
 constexpr AttributeRule kTexcoordRule{"TEXCOORD", TINYGLTF_TYPE_VEC2,
                                       kCtFloat | kCtByte | kCtUByte | kCtShort | kCtUShort, false};
 
+/// EXT_mesh_gpu_instancing's per-instance attributes: float, or with KHR_mesh_quantization
+/// (which the extension's specification allows) 8- and 16-bit integers; a rotation's
+/// integers must be normalized.
+constexpr AttributeRule kInstanceTranslationRule{"TRANSLATION", TINYGLTF_TYPE_VEC3,
+                                                 kCtFloat | kCtByte | kCtUByte | kCtShort | kCtUShort, false};
+constexpr AttributeRule kInstanceRotationRule{"ROTATION", TINYGLTF_TYPE_VEC4, kCtFloat | kCtByte | kCtShort, true};
+constexpr AttributeRule kInstanceScaleRule{"SCALE", TINYGLTF_TYPE_VEC3,
+                                           kCtFloat | kCtByte | kCtUByte | kCtShort | kCtUShort, false};
+
 /// KHR_texture_transform as an affine map of uv: u' = a*u + b*v + c, v' = d*u + e*v + f.
 struct UvTransform {
     float a = 1, b = 0, c = 0, d = 0, e = 1, f = 0;
@@ -366,6 +376,7 @@ private:
     void add_light(int ni, const Mat4f& world);
     void add_camera(int ni, const Mat4f& world);
     void add_mesh_instance(int ni, const Mat4f& world);
+    void add_gpu_instances(int ni, const Mat4f& world, const tinygltf::Value& ext);
     void decode_draco_primitive(const tinygltf::Primitive& p, const std::string& pdesc,
                                 const std::string& uv_semantic,
                                 gltf_detail::DracoPrimitive& out);
@@ -454,6 +465,26 @@ std::vector<int> Loader::root_nodes() {
     return roots;
 }
 
+namespace {
+/// The rotation of the quaternion (x, y, z, w), normalised first; false for a zero one.
+bool rotation_matrix(double x, double y, double z, double w, Mat4f& rot) {
+    const double len = std::sqrt(x * x + y * y + z * z + w * w);
+    if (!(len > 0.0) || !std::isfinite(len)) return false;
+    x /= len; y /= len; z /= len; w /= len;
+    rot = Mat4f();
+    rot.m[0][0] = float(1 - 2 * (y * y + z * z));
+    rot.m[0][1] = float(2 * (x * y - z * w));
+    rot.m[0][2] = float(2 * (x * z + y * w));
+    rot.m[1][0] = float(2 * (x * y + z * w));
+    rot.m[1][1] = float(1 - 2 * (x * x + z * z));
+    rot.m[1][2] = float(2 * (y * z - x * w));
+    rot.m[2][0] = float(2 * (x * z - y * w));
+    rot.m[2][1] = float(2 * (y * z + x * w));
+    rot.m[2][2] = float(1 - 2 * (x * x + y * y));
+    return true;
+}
+}  // namespace
+
 Mat4f Loader::local_matrix(int ni) const {
     const tinygltf::Node& n = m_.nodes[size_t(ni)];
     auto finite = [](const std::vector<double>& v) {
@@ -476,21 +507,9 @@ Mat4f Loader::local_matrix(int ni) const {
     if (!finite(n.translation) || !finite(n.rotation) || !finite(n.scale))
         fail(node_desc(ni) + ": translation/rotation/scale is not finite");
     Mat4f rot;
-    if (!n.rotation.empty()) {
-        double x = n.rotation[0], y = n.rotation[1], z = n.rotation[2], w = n.rotation[3];
-        double len = std::sqrt(x * x + y * y + z * z + w * w);
-        if (!(len > 0.0) || !std::isfinite(len)) fail(node_desc(ni) + ": rotation quaternion is zero");
-        x /= len; y /= len; z /= len; w /= len;
-        rot.m[0][0] = float(1 - 2 * (y * y + z * z));
-        rot.m[0][1] = float(2 * (x * y - z * w));
-        rot.m[0][2] = float(2 * (x * z + y * w));
-        rot.m[1][0] = float(2 * (x * y + z * w));
-        rot.m[1][1] = float(1 - 2 * (x * x + z * z));
-        rot.m[1][2] = float(2 * (y * z - x * w));
-        rot.m[2][0] = float(2 * (x * z - y * w));
-        rot.m[2][1] = float(2 * (y * z + x * w));
-        rot.m[2][2] = float(1 - 2 * (x * x + y * y));
-    }
+    if (!n.rotation.empty() &&
+        !rotation_matrix(n.rotation[0], n.rotation[1], n.rotation[2], n.rotation[3], rot))
+        fail(node_desc(ni) + ": rotation quaternion is zero");
     Mat4f t, s;
     if (!n.translation.empty())
         t = Mat4f::translate({float(n.translation[0]), float(n.translation[1]), float(n.translation[2])});
@@ -522,7 +541,13 @@ void Loader::traverse(const std::vector<int>& roots) {
                 if (!std::isfinite(world.m[r][c]))
                     fail(node_desc(ni) + ": world transform is not finite");
         const tinygltf::Node& n = m_.nodes[size_t(ni)];
-        if (n.mesh != -1) add_mesh_instance(ni, world);
+        if (n.mesh != -1) {
+            const auto inst = n.extensions.find("EXT_mesh_gpu_instancing");
+            if (inst != n.extensions.end())
+                add_gpu_instances(ni, world, inst->second);
+            else
+                add_mesh_instance(ni, world);
+        }
         if (n.camera != -1) add_camera(ni, world);
         add_light(ni, world);
         if (n.skin != -1 && n.mesh != -1)
@@ -1159,6 +1184,46 @@ const DecodedPrimitive& Loader::decode_primitive(int mi, int pi) {
         }
     }
     return primitives_.emplace(key, std::move(d)).first->second;
+}
+
+void Loader::add_gpu_instances(int ni, const Mat4f& world, const tinygltf::Value& ext) {
+    // EXT_mesh_gpu_instancing: the node's mesh once per instance, each placed by its own
+    // translation, rotation and scale (identity where an attribute is absent) inside the
+    // node's frame: world * T * R * S. The scene model holds world-space meshes, so each
+    // instance becomes its own copy, counted against kMaxSceneElements like any other.
+    const std::string desc = node_desc(ni) + ": EXT_mesh_gpu_instancing";
+    if (!ext.IsObject() || !ext.Has("attributes") || !ext.Get("attributes").IsObject())
+        fail(desc + " has no attributes object");
+    const tinygltf::Value& attrs = ext.Get("attributes");
+    std::vector<float> t, r, sc;
+    size_t count = 0;
+    bool counted = false;
+    const std::pair<const AttributeRule*, std::vector<float>*> wanted[] = {
+        {&kInstanceTranslationRule, &t}, {&kInstanceRotationRule, &r}, {&kInstanceScaleRule, &sc}};
+    for (const auto& [rule, out] : wanted) {
+        if (!attrs.Has(rule->semantic)) continue;
+        const tinygltf::Value& a = attrs.Get(rule->semantic);
+        const double ai = a.IsNumber() ? a.GetNumberAsDouble() : -1.0;
+        if (!(ai >= 0.0) || ai != std::floor(ai) || ai >= double(m_.accessors.size()))
+            fail(desc + ": " + rule->semantic + " is not an accessor index");
+        *out = read_attribute(int(ai), *rule, desc);
+        const size_t n = out->size() / size_t(type_components(rule->type));
+        if (counted && n != count)
+            fail(desc + ": " + rule->semantic + " has " + std::to_string(n) + " instances, " +
+                 std::to_string(count) + " elsewhere (all attributes must have the same count)");
+        count = n;
+        counted = true;
+    }
+    if (!counted) fail(desc + " names none of TRANSLATION, ROTATION, SCALE");
+    for (size_t k = 0; k < count; ++k) {
+        Mat4f tm, rm, sm;
+        if (!t.empty()) tm = Mat4f::translate({t[3 * k], t[3 * k + 1], t[3 * k + 2]});
+        if (!r.empty() && !rotation_matrix(r[4 * k], r[4 * k + 1], r[4 * k + 2], r[4 * k + 3], rm))
+            fail(desc + ": instance " + std::to_string(k) + " has a zero rotation quaternion");
+        if (!sc.empty()) sm = Mat4f::scale({sc[3 * k], sc[3 * k + 1], sc[3 * k + 2]});
+        add_mesh_instance(ni, world * tm * rm * sm);
+    }
+    if (count > 1) note(desc + ": " + std::to_string(count) + " instances, each loaded as its own copy");
 }
 
 void Loader::add_mesh_instance(int ni, const Mat4f& world) {

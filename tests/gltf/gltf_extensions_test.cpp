@@ -145,4 +145,108 @@ TEST(GltfTextureTransform, TexCoordOverrideAndBadValues) {
     }
 }
 
+
+// EXT_mesh_gpu_instancing: a unit cube placed 125 times, on a 5x5x5 grid, turned and
+// scaled non-uniformly per instance; once by the extension's accessors, once as 125
+// nodes with the same translation, rotation and scale. Both load as the same world-space
+// triangles.
+struct Placement {
+    float t[3], r[4], s[3];
+};
+
+std::vector<Placement> grid_placements() {
+    std::vector<Placement> out;
+    for (int i = 0; i < 125; ++i) {
+        const float a = 0.05f * float(i), half = 0.5f * a;
+        // A unit quaternion about a tilted axis (1, 2, 2) / 3.
+        const float sn = std::sin(half) / 3.0f;
+        out.push_back({{float(i % 5) * 3.0f, float((i / 5) % 5) * 3.0f, float(i / 25) * 3.0f},
+                       {sn, 2.0f * sn, 2.0f * sn, std::cos(half)},
+                       {1.0f + 0.1f * float(i % 3), 0.5f, 2.0f - 0.01f * float(i)}});
+    }
+    return out;
+}
+
+/// A cube of 8 corners and 12 triangles at buffer offset 0, placed by 125 nodes
+/// (`instanced` false) or by one node with EXT_mesh_gpu_instancing.
+std::string cubes(bool instanced) {
+    const std::vector<float> pos = {0, 0, 0, 1, 0, 0, 1, 1, 0, 0, 1, 0, 0, 0, 1, 1, 0, 1, 1, 1, 1, 0, 1, 1};
+    const std::vector<uint16_t> idx = {0, 2, 1, 0, 3, 2, 4, 5, 6, 4, 6, 7, 0, 1, 5, 0, 5, 4,
+                                       3, 6, 2, 3, 7, 6, 0, 4, 7, 0, 7, 3, 1, 2, 6, 1, 6, 5};
+    std::vector<uint8_t> bytes;
+    auto put = [&](const void* p, size_t n) {
+        const uint8_t* b = static_cast<const uint8_t*>(p);
+        bytes.insert(bytes.end(), b, b + n);
+    };
+    put(pos.data(), pos.size() * 4);
+    put(idx.data(), idx.size() * 2);
+    const std::vector<Placement> pl = grid_placements();
+    std::string nodes, extras;
+    if (instanced) {
+        for (const Placement& p : pl) put(p.t, 12);
+        for (const Placement& p : pl) put(p.r, 16);
+        for (const Placement& p : pl) put(p.s, 12);
+        nodes = R"({"mesh":0,"extensions":{"EXT_mesh_gpu_instancing":{"attributes":{"TRANSLATION":2,"ROTATION":3,"SCALE":4}}}})";
+        extras = R"(,{"bufferView":2,"componentType":5126,"count":125,"type":"VEC3"},)"
+                 R"({"bufferView":3,"componentType":5126,"count":125,"type":"VEC4"},)"
+                 R"({"bufferView":4,"componentType":5126,"count":125,"type":"VEC3"})";
+    } else {
+        auto list = [](const float* v, int n) {
+            std::string o = "[";
+            for (int k = 0; k < n; ++k) o += (k ? "," : "") + std::to_string(v[k]);
+            return o + "]";
+        };
+        for (size_t i = 0; i < pl.size(); ++i)
+            nodes += std::string(i ? "," : "") + R"({"mesh":0,"translation":)" + list(pl[i].t, 3) + R"(,"rotation":)" +
+                     list(pl[i].r, 4) + R"(,"scale":)" + list(pl[i].s, 3) + "}";
+    }
+    std::string roots;
+    for (size_t i = 0; i < (instanced ? 1u : pl.size()); ++i) roots += (i ? "," : "") + std::to_string(i);
+    const size_t inst = instanced ? 125 * 40 : 0;
+    return R"({"asset":{"version":"2.0"},"extensionsUsed":["EXT_mesh_gpu_instancing"],"scene":0,"scenes":[{"nodes":[)" +
+           roots + R"(]}],"nodes":[)" + nodes + R"(],"meshes":[{"primitives":[{"attributes":{"POSITION":0},"indices":1}]}],)"
+           R"("accessors":[{"bufferView":0,"componentType":5126,"count":8,"type":"VEC3","min":[0,0,0],"max":[1,1,1]},)"
+           R"({"bufferView":1,"componentType":5123,"count":36,"type":"SCALAR"})" + extras +
+           R"(],"bufferViews":[{"buffer":0,"byteLength":96},{"buffer":0,"byteOffset":96,"byteLength":72})" +
+           (instanced ? R"(,{"buffer":0,"byteOffset":168,"byteLength":1500},{"buffer":0,"byteOffset":1668,"byteLength":2000},)"
+                        R"({"buffer":0,"byteOffset":3668,"byteLength":1500})"
+                      : "") +
+           R"(],"buffers":[{"byteLength":)" + std::to_string(168 + inst) +
+           R"(,"uri":"data:application/octet-stream;base64,)" + draco_writer::base64(bytes) + R"("}]})";
+}
+
+TEST(GltfGpuInstancing, PlacesEveryInstanceAsItsNodeTwinWould) {
+    const scenes::Scene inst = load(cubes(true), "instanced.gltf"), nodes = load(cubes(false), "nodes.gltf");
+    ASSERT_EQ(nodes.meshes.size(), 125u);
+    ASSERT_EQ(inst.meshes.size(), 125u) << "one copy per instance";
+    for (size_t i = 0; i < 125; ++i) {
+        ASSERT_EQ(inst.meshes[i].num_triangles(), 12u);
+        ASSERT_EQ(inst.meshes[i].indices, nodes.meshes[i].indices) << "instance " << i;
+        for (size_t v = 0; v < 8; ++v)
+            EXPECT_LT(dist(inst.meshes[i].positions[v], nodes.meshes[i].positions[v]), 2e-5f)
+                << "instance " << i << " corner " << v;
+    }
+    // Non-uniform scale and rotation really moved the corners (the comparison above is not
+    // between two identity placements).
+    EXPECT_GT(dist(inst.meshes[7].positions[6], scenes::Vec3f{1, 1, 1}), 1.0f);
+    for (const std::string& n : inst.notes) EXPECT_EQ(n.find("extensions ignored"), std::string::npos) << n;
+}
+
+TEST(GltfGpuInstancing, MismatchedCountsAndBadAccessorsFailNamingTheNode) {
+    std::string bad = cubes(true);
+    const std::string vec4 = R"({"bufferView":3,"componentType":5126,"count":125,"type":"VEC4"})";
+    bad.replace(bad.find(vec4), vec4.size(), R"({"bufferView":3,"componentType":5126,"count":124,"type":"VEC4"})");
+    try {
+        load(bad, "bad.gltf");
+        FAIL() << "mismatched instance counts accepted";
+    } catch (const scenes::SceneError& e) {
+        EXPECT_NE(std::string(e.what()).find("node 0: EXT_mesh_gpu_instancing: ROTATION has 124 instances"),
+                  std::string::npos)
+            << e.what();
+    }
+    std::string noattr = cubes(true);
+    noattr.replace(noattr.find(R"("TRANSLATION":2)"), 15, R"("TRANSLATION":9)");
+    EXPECT_THROW(load(noattr, "bad.gltf"), scenes::SceneError);
+}
+
 }  // namespace
