@@ -9,10 +9,16 @@
 //             orders of magnitude: very uneven triangle sizes, many glTF nodes.
 //   sliver  - a sheet of needle-thin triangles (aspect ~1000:1) turned diagonal to every
 //             axis, so each triangle's bounding box is mostly empty space.
+//   forest  - a few hundred tree prototypes (an opaque trunk and alpha-masked leaf cards
+//             each) placed up to 10^7 times by EXT_mesh_gpu_instancing: production-scale
+//             instance counts, up to 10^11 instanced triangles in a file of a few hundred
+//             MB, and cut-out geometry that alpha testing must see through.
 //
 // The GLB is written here, not by a library: a 12-byte header, a JSON chunk (padded with
 // spaces) and a BIN chunk (padded with zeros); float32 VEC3 POSITION with min/max,
-// uint32 SCALAR indices. One buffer, one bufferView per accessor.
+// uint32 SCALAR indices, float32 VEC2 TEXCOORD_0 where a mesh has uvs, float32 instance
+// TRANSLATION/ROTATION/SCALE, and embedded PNG images. One buffer, one bufferView per
+// accessor or image.
 //
 // The generator code sits above the main() guard so tests/benchmarks/scenegen_test.cpp
 // can include this file and check the writer in-process (SCENEGEN_NO_MAIN).
@@ -35,35 +41,71 @@ struct V3 {
     float x = 0, y = 0, z = 0;
 };
 
-/// One mesh as it goes into the file: positions and triangle indices.
+/// One mesh as it goes into the file: positions, triangle indices and optional uvs (two
+/// floats per position).
 struct MeshData {
     std::string name;
     std::vector<V3> positions;
     std::vector<uint32_t> indices;
+    std::vector<float> uvs;
     int material = 0;
     uint64_t triangles() const { return indices.size() / 3; }
 };
 
-/// A node instancing mesh `mesh` with a column-major 4x4 matrix (glTF convention).
+/// One instance's placement, as EXT_mesh_gpu_instancing stores it: translation, unit
+/// rotation quaternion (x, y, z, w) and scale.
+struct Trs {
+    float t[3] = {0, 0, 0};
+    float r[4] = {0, 0, 0, 1};
+    float s[3] = {1, 1, 1};
+};
+
+/// A node instancing mesh `mesh` with a column-major 4x4 matrix (glTF convention), or,
+/// with `instances` >= 0, once per placement of Document::instance_sets[instances]
+/// (EXT_mesh_gpu_instancing; nodes that share a set share its accessors).
 struct Node {
     int mesh = 0;
     std::array<float, 16> matrix{1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1};
     bool identity = true;
+    int instances = -1;
 };
 
 struct MaterialData {
     std::string name;
     float r = 0.8f, g = 0.8f, b = 0.8f;
+    int texture = -1;  ///< base colour texture: an index into Document::images
+    bool mask = false;  ///< alphaMode MASK with alphaCutoff 0.5, double-sided (leaf cards)
 };
 
 struct Document {
     std::vector<MeshData> meshes;
     std::vector<Node> nodes;
     std::vector<MaterialData> materials;
-    /// Triangles a loader sees after instancing (each node contributes its mesh's).
+    std::vector<std::vector<Trs>> instance_sets;
+    std::vector<std::string> images;  ///< PNG files' bytes
+    /// Placements of a node: 1, or its instance set's size.
+    uint64_t placements(const Node& nd) const {
+        return nd.instances < 0 ? 1 : instance_sets[size_t(nd.instances)].size();
+    }
+    /// Triangles a loader sees after instancing (each node contributes its mesh's, once
+    /// per placement).
     uint64_t instanced_triangles() const {
         uint64_t n = 0;
-        for (const Node& nd : nodes) n += meshes[size_t(nd.mesh)].triangles();
+        for (const Node& nd : nodes) n += meshes[size_t(nd.mesh)].triangles() * placements(nd);
+        return n;
+    }
+    /// Distinct triangles stored in the file.
+    uint64_t unique_triangles() const {
+        uint64_t n = 0;
+        for (const MeshData& m : meshes) n += m.triangles();
+        return n;
+    }
+    /// Placed prototypes: a node without a set is one, and a set counts once however
+    /// many nodes (a tree's trunk and leaves) share it.
+    uint64_t instances() const {
+        uint64_t n = 0;
+        for (const Node& nd : nodes) n += nd.instances < 0;
+        for (const std::vector<Trs>& set : instance_sets) n += set.size();
         return n;
     }
 };
@@ -103,52 +145,79 @@ inline std::string to_glb(const Document& doc) {
     using namespace detail;
     std::string bin;
     std::ostringstream views, accessors, meshes;
-    int view_count = 0;
-    auto align4 = [&bin] {
+    int view_count = 0, accessor_count = 0;
+    // Appends `bytes` bytes (4-aligned) as a new bufferView and returns its index.
+    auto add_view = [&](const void* data, size_t bytes, int target) {
         while (bin.size() % 4) bin.push_back('\0');
+        const size_t off = bin.size();
+        bin.append(static_cast<const char*>(data), bytes);
+        views << (view_count ? "," : "") << "{\"buffer\":0,\"byteOffset\":" << off << ",\"byteLength\":" << bytes;
+        if (target) views << ",\"target\":" << target;
+        views << "}";
+        return view_count++;
+    };
+    // A float accessor over a new view of `count` elements of `type` ("VEC2", ...).
+    auto add_floats = [&](const std::vector<float>& v, size_t count, const char* type, int target,
+                          const std::string& minmax = "") {
+        const int view = add_view(v.data(), v.size() * 4, target);
+        accessors << (accessor_count ? "," : "") << "{\"bufferView\":" << view
+                  << ",\"componentType\":5126,\"count\":" << count << ",\"type\":\"" << type << "\"" << minmax << "}";
+        return accessor_count++;
     };
     for (size_t mi = 0; mi < doc.meshes.size(); ++mi) {
         const MeshData& m = doc.meshes[mi];
         if (m.positions.empty() || m.indices.empty()) throw std::invalid_argument("empty mesh " + m.name);
         for (uint32_t i : m.indices)
             if (i >= m.positions.size()) throw std::invalid_argument("index out of range in " + m.name);
+        if (!m.uvs.empty() && m.uvs.size() != 2 * m.positions.size())
+            throw std::invalid_argument("uv count mismatch in " + m.name);
         V3 lo{INFINITY, INFINITY, INFINITY}, hi{-INFINITY, -INFINITY, -INFINITY};
-        for (const V3& p : m.positions) {
+        std::vector<float> pos(m.positions.size() * 3);
+        for (size_t i = 0; i < m.positions.size(); ++i) {
+            const V3& p = m.positions[i];
             lo = {std::min(lo.x, p.x), std::min(lo.y, p.y), std::min(lo.z, p.z)};
             hi = {std::max(hi.x, p.x), std::max(hi.y, p.y), std::max(hi.z, p.z)};
+            pos[3 * i] = p.x, pos[3 * i + 1] = p.y, pos[3 * i + 2] = p.z;
         }
-        align4();
-        const size_t pos_off = bin.size(), pos_len = m.positions.size() * 12;
-        bin.resize(bin.size() + pos_len);
-        for (size_t i = 0; i < m.positions.size(); ++i) {
-            const float f[3] = {m.positions[i].x, m.positions[i].y, m.positions[i].z};
-            std::memcpy(&bin[pos_off + i * 12], f, 12);
-        }
-        align4();
-        const size_t idx_off = bin.size(), idx_len = m.indices.size() * 4;
-        bin.resize(bin.size() + idx_len);
-        std::memcpy(&bin[idx_off], m.indices.data(), idx_len);
-
-        if (view_count) views << ",";
-        views << "{\"buffer\":0,\"byteOffset\":" << pos_off << ",\"byteLength\":" << pos_len
-              << ",\"target\":34962},{\"buffer\":0,\"byteOffset\":" << idx_off << ",\"byteLength\":" << idx_len
-              << ",\"target\":34963}";
-        if (mi) accessors << ",";
-        accessors << "{\"bufferView\":" << view_count << ",\"componentType\":5126,\"count\":" << m.positions.size()
-                  << ",\"type\":\"VEC3\",\"min\":[" << fmt_float(lo.x) << "," << fmt_float(lo.y) << ","
-                  << fmt_float(lo.z) << "],\"max\":[" << fmt_float(hi.x) << "," << fmt_float(hi.y) << ","
-                  << fmt_float(hi.z) << "]},{\"bufferView\":" << view_count + 1
-                  << ",\"componentType\":5125,\"count\":" << m.indices.size() << ",\"type\":\"SCALAR\"}";
-        if (mi) meshes << ",";
-        meshes << "{\"name\":\"" << json_escape(m.name) << "\",\"primitives\":[{\"attributes\":{\"POSITION\":"
-               << 2 * mi << "},\"indices\":" << 2 * mi + 1 << ",\"material\":" << m.material << ",\"mode\":4}]}";
-        view_count += 2;
+        const int pa = add_floats(pos, m.positions.size(), "VEC3", 34962,
+                                  ",\"min\":[" + fmt_float(lo.x) + "," + fmt_float(lo.y) + "," + fmt_float(lo.z) +
+                                      "],\"max\":[" + fmt_float(hi.x) + "," + fmt_float(hi.y) + "," +
+                                      fmt_float(hi.z) + "]");
+        const int iv = add_view(m.indices.data(), m.indices.size() * 4, 34963);
+        accessors << ",{\"bufferView\":" << iv << ",\"componentType\":5125,\"count\":" << m.indices.size()
+                  << ",\"type\":\"SCALAR\"}";
+        const int ia = accessor_count++;
+        const int ua = m.uvs.empty() ? -1 : add_floats(m.uvs, m.positions.size(), "VEC2", 34962);
+        meshes << (mi ? "," : "") << "{\"name\":\"" << json_escape(m.name) << "\",\"primitives\":[{\"attributes\":{\"POSITION\":"
+               << pa;
+        if (ua >= 0) meshes << ",\"TEXCOORD_0\":" << ua;
+        meshes << "},\"indices\":" << ia << ",\"material\":" << m.material << ",\"mode\":4}]}";
     }
-    align4();
+    // Instance sets: TRANSLATION, ROTATION, SCALE accessors, shared by the nodes using them.
+    std::vector<int> set_accessor(doc.instance_sets.size());
+    for (size_t k = 0; k < doc.instance_sets.size(); ++k) {
+        const std::vector<Trs>& set = doc.instance_sets[k];
+        if (set.empty()) throw std::invalid_argument("empty instance set");
+        std::vector<float> t, r, sc;
+        t.reserve(set.size() * 3), r.reserve(set.size() * 4), sc.reserve(set.size() * 3);
+        for (const Trs& x : set) {
+            t.insert(t.end(), x.t, x.t + 3);
+            r.insert(r.end(), x.r, x.r + 4);
+            sc.insert(sc.end(), x.s, x.s + 3);
+        }
+        set_accessor[k] = add_floats(t, set.size(), "VEC3", 0);
+        add_floats(r, set.size(), "VEC4", 0);
+        add_floats(sc, set.size(), "VEC3", 0);
+    }
+    std::vector<int> image_view;
+    for (const std::string& png : doc.images) image_view.push_back(add_view(png.data(), png.size(), 0));
+    while (bin.size() % 4) bin.push_back('\0');
     if (bin.size() >= (uint64_t(1) << 32) - 1024) throw std::length_error("GLB larger than 4 GiB");
 
     std::ostringstream js;
-    js << "{\"asset\":{\"version\":\"2.0\",\"generator\":\"pathtracer scenegen\"},\"scene\":0,\"scenes\":[{\"nodes\":[";
+    js << "{\"asset\":{\"version\":\"2.0\",\"generator\":\"pathtracer scenegen\"},";
+    if (!doc.instance_sets.empty()) js << "\"extensionsUsed\":[\"EXT_mesh_gpu_instancing\"],";
+    js << "\"scene\":0,\"scenes\":[{\"nodes\":[";
     for (size_t i = 0; i < doc.nodes.size(); ++i) js << (i ? "," : "") << i;
     js << "]}],\"nodes\":[";
     for (size_t i = 0; i < doc.nodes.size(); ++i) {
@@ -159,6 +228,11 @@ inline std::string to_glb(const Document& doc) {
             for (int k = 0; k < 16; ++k) js << (k ? "," : "") << fmt_float(n.matrix[size_t(k)]);
             js << "]";
         }
+        if (n.instances >= 0) {
+            const int a = set_accessor[size_t(n.instances)];
+            js << ",\"extensions\":{\"EXT_mesh_gpu_instancing\":{\"attributes\":{\"TRANSLATION\":" << a
+               << ",\"ROTATION\":" << a + 1 << ",\"SCALE\":" << a + 2 << "}}}";
+        }
         js << "}";
     }
     js << "],\"materials\":[";
@@ -166,9 +240,22 @@ inline std::string to_glb(const Document& doc) {
         const MaterialData& m = doc.materials[i];
         js << (i ? "," : "") << "{\"name\":\"" << json_escape(m.name)
            << "\",\"pbrMetallicRoughness\":{\"baseColorFactor\":[" << fmt_float(m.r) << "," << fmt_float(m.g)
-           << "," << fmt_float(m.b) << ",1],\"metallicFactor\":0,\"roughnessFactor\":1}}";
+           << "," << fmt_float(m.b) << ",1],\"metallicFactor\":0,\"roughnessFactor\":1";
+        if (m.texture >= 0) js << ",\"baseColorTexture\":{\"index\":" << m.texture << "}";
+        js << "}";
+        if (m.mask) js << ",\"alphaMode\":\"MASK\",\"alphaCutoff\":0.5,\"doubleSided\":true";
+        js << "}";
     }
-    js << "],\"meshes\":[" << meshes.str() << "],\"accessors\":[" << accessors.str() << "],\"bufferViews\":["
+    js << "]";
+    if (!doc.images.empty()) {
+        js << ",\"samplers\":[{}],\"images\":[";
+        for (size_t i = 0; i < doc.images.size(); ++i)
+            js << (i ? "," : "") << "{\"bufferView\":" << image_view[i] << ",\"mimeType\":\"image/png\"}";
+        js << "],\"textures\":[";
+        for (size_t i = 0; i < doc.images.size(); ++i) js << (i ? "," : "") << "{\"source\":" << i << ",\"sampler\":0}";
+        js << "]";
+    }
+    js << ",\"meshes\":[" << meshes.str() << "],\"accessors\":[" << accessors.str() << "],\"bufferViews\":["
        << views.str() << "],\"buffers\":[{\"byteLength\":" << bin.size() << "}]}";
     std::string json = js.str();
     while (json.size() % 4) json.push_back(' ');  // the JSON chunk is padded with spaces
@@ -310,13 +397,131 @@ inline MeshData height_field(int rows, int cols, const Waves& waves, float amp, 
 
 inline uint64_t ceil_div(uint64_t a, uint64_t b) { return (a + b - 1) / b; }
 
+/// An RGBA8 PNG of w x h pixels (row-major, 4 bytes each), its image data in stored
+/// (uncompressed) deflate blocks: no compression library for a 16 KiB leaf (PNG
+/// specification, ISO/IEC 15948; zlib and deflate framing, RFC 1950 and 1951).
+inline std::string png_rgba(int w, int h, const std::vector<uint8_t>& rgba) {
+    auto be32 = [](std::string& s, uint32_t v) {
+        for (int k = 3; k >= 0; --k) s.push_back(char((v >> (8 * k)) & 255u));
+    };
+    auto crc32 = [](const std::string& bytes) {
+        uint32_t c = 0xFFFFFFFFu;
+        for (unsigned char b : bytes) {
+            c ^= b;
+            for (int k = 0; k < 8; ++k) c = (c >> 1) ^ (0xEDB88320u & (0u - (c & 1u)));
+        }
+        return c ^ 0xFFFFFFFFu;
+    };
+    std::string raw;  // each row: filter type 0, then its pixels
+    for (int y = 0; y < h; ++y) {
+        raw.push_back('\0');
+        raw.append(reinterpret_cast<const char*>(rgba.data()) + size_t(y) * size_t(w) * 4, size_t(w) * 4);
+    }
+    std::string z = "\x78\x01";
+    uint32_t a = 1, b = 0;  // Adler-32
+    for (unsigned char c : raw) a = (a + c) % 65521u, b = (b + a) % 65521u;
+    for (size_t at = 0; at < raw.size() || at == 0; at += 65535) {
+        const size_t n = std::min<size_t>(65535, raw.size() - at);
+        z.push_back(char(at + n >= raw.size() ? 1 : 0));
+        z.push_back(char(n & 255)), z.push_back(char(n >> 8));
+        z.push_back(char(~n & 255)), z.push_back(char((~n >> 8) & 255));
+        z.append(raw, at, n);
+    }
+    be32(z, (b << 16) | a);
+    std::string out = "\x89PNG\r\n\x1a\n";
+    auto chunk = [&](const char* type, const std::string& data) {
+        be32(out, uint32_t(data.size()));
+        const std::string body = type + data;
+        out += body;
+        be32(out, crc32(body));
+    };
+    std::string ihdr;
+    be32(ihdr, uint32_t(w)), be32(ihdr, uint32_t(h));
+    ihdr += std::string("\x08\x06\x00\x00\x00", 5);  // 8-bit RGBA, no interlace
+    chunk("IHDR", ihdr);
+    chunk("IDAT", z);
+    chunk("IEND", "");
+    return out;
+}
+
+/// A leaf for the forest's cards: a pointed ellipse along the texture's v axis, opaque
+/// inside (greens varying across it), alpha 0 outside, a vein down the middle.
+inline std::string leaf_png(int n) {
+    std::vector<uint8_t> px(size_t(n) * size_t(n) * 4, 0);
+    for (int y = 0; y < n; ++y)
+        for (int x = 0; x < n; ++x) {
+            const float u = (float(x) + 0.5f) / float(n) * 2.0f - 1.0f, v = (float(y) + 0.5f) / float(n);
+            // Half-width along v: 0 at both tips, widest a third of the way up.
+            const float half = 0.85f * std::sin(3.14159265f * std::pow(v, 0.75f));
+            uint8_t* p = &px[(size_t(y) * size_t(n) + size_t(x)) * 4];
+            if (std::fabs(u) >= half) continue;
+            const bool vein = std::fabs(u) < 0.04f;
+            p[0] = uint8_t(vein ? 120 : 40 + 40 * v);
+            p[1] = uint8_t(vein ? 160 : 110 + 60 * (1.0f - std::fabs(u)));
+            p[2] = uint8_t(vein ? 60 : 30);
+            p[3] = 255;
+        }
+    return png_rgba(n, n, px);
+}
+
+/// Tree prototype k of roughly `triangles` triangles: a trunk (an 8-sided cylinder,
+/// material 1) and leaf cards (quads with uvs over the leaf texture, material 2) filling
+/// an ellipsoidal crown. Heights 4-12, crowns 1.5-4 across; y up, base at the origin.
+inline void tree(uint64_t seed, uint64_t triangles, MeshData& trunk, MeshData& leaves) {
+    std::mt19937_64 rng(seed);
+    std::uniform_real_distribution<float> u01(0.0f, 1.0f);
+    const float height = 4.0f + 8.0f * u01(rng), crown = 1.5f + 2.5f * u01(rng), radius = 0.04f * height;
+    const int sides = 8;
+    for (int k = 0; k <= sides; ++k) {
+        const float a = 6.2831853f * float(k % sides) / float(sides);
+        trunk.positions.push_back({radius * std::cos(a), 0.0f, radius * std::sin(a)});
+        trunk.positions.push_back({0.6f * radius * std::cos(a), 0.85f * height, 0.6f * radius * std::sin(a)});
+    }
+    for (uint32_t k = 0; k < uint32_t(sides); ++k) {
+        const uint32_t q = 2 * k;
+        trunk.indices.insert(trunk.indices.end(), {q, q + 1, q + 2, q + 2, q + 1, q + 3});
+    }
+    trunk.material = 1;
+    const uint64_t cards = std::max<uint64_t>(1, (triangles > 16 ? triangles - 16 : 2) / 2);
+    // Cards of about the size that tiles the crown's surface a few times over.
+    const float size = std::max(0.05f, 2.5f * crown / std::sqrt(float(cards)));
+    const float cy = height - crown;
+    for (uint64_t c = 0; c < cards; ++c) {
+        V3 d;
+        float l2;
+        do {
+            d = {2 * u01(rng) - 1, 2 * u01(rng) - 1, 2 * u01(rng) - 1};
+            l2 = d.x * d.x + d.y * d.y + d.z * d.z;
+        } while (l2 > 1.0f || l2 < 1e-4f);
+        const V3 centre{crown * d.x, cy + 1.2f * crown * d.y, crown * d.z};
+        // A random frame: the card's long side (the leaf's v) and its width.
+        const float a = 6.2831853f * u01(rng), tilt = 1.2f * (u01(rng) - 0.5f);
+        const V3 up{std::cos(a) * std::sin(tilt), std::cos(tilt), std::sin(a) * std::sin(tilt)};
+        const V3 side{-std::sin(a), 0.0f, std::cos(a)};
+        const uint32_t base = uint32_t(leaves.positions.size());
+        for (int k = 0; k < 4; ++k) {
+            const float su = (k == 1 || k == 2) ? 0.5f : -0.5f, sv = k >= 2 ? 1.0f : 0.0f;
+            leaves.positions.push_back({centre.x + size * (su * side.x + sv * up.x),
+                                        centre.y + size * (su * side.y + sv * up.y),
+                                        centre.z + size * (su * side.z + sv * up.z)});
+            leaves.uvs.insert(leaves.uvs.end(), {su + 0.5f, 1.0f - sv});
+        }
+        leaves.indices.insert(leaves.indices.end(), {base, base + 1, base + 2, base, base + 2, base + 3});
+    }
+    leaves.material = 2;
+}
+
 /// Builds the document of `kind` with at least `triangles` triangles after instancing
 /// (and at most a few percent more; see each kind). Throws std::invalid_argument on a
 /// bad kind or count.
 inline Document generate(const std::string& kind, uint64_t triangles, uint64_t seed) {
     if (triangles < 12) throw std::invalid_argument("--triangles must be at least 12");
-    // 2^28 elements is the glTF loader's scene budget; 60M triangles stays well inside it.
-    if (triangles > 60'000'000ull) throw std::invalid_argument("--triangles must be at most 60000000");
+    // 2^28 elements is the glTF loader's scene budget for flattened meshes; 60M triangles
+    // stays well inside it. A forest is meant to stay instanced: 10^11 triangles after
+    // instancing from at most 10^7 placements.
+    if (kind != "forest" && triangles > 60'000'000ull)
+        throw std::invalid_argument("--triangles must be at most 60000000");
+    if (triangles > 100'000'000'000ull) throw std::invalid_argument("--triangles must be at most 100000000000");
     Document doc;
     if (kind == "sphere") {
         doc.materials.push_back({"stone", 0.7f, 0.7f, 0.65f});
@@ -387,24 +592,87 @@ inline Document generate(const std::string& kind, uint64_t triangles, uint64_t s
         std::mt19937_64 rng(seed);
         std::uniform_real_distribution<float> u01(0.0f, 1.0f);
         uint64_t total = 2;
+        std::vector<std::vector<Trs>> rocks(4);
         while (total < triangles) {
-            Node nd;
             int k = int(rng() % 4);
             // Near the target, smaller rocks, so the count overshoots by < 12 triangles.
             while (k > 0 && total + doc.meshes[size_t(1 + k)].triangles() > triangles) --k;
-            nd.mesh = 1 + k;
             const float scale = std::pow(10.0f, -2.0f + 2.0f * u01(rng));
             const float ang = 6.2831853f * u01(rng);
             const float x = -45.0f + 90.0f * u01(rng), z = -45.0f + 90.0f * u01(rng);
-            const float c = std::cos(ang) * scale, s = std::sin(ang) * scale;
-            // Column-major: rotation about y, uniform scale, half-buried in the ground.
-            nd.matrix = {c, 0, -s, 0, 0, scale, 0, 0, s, 0, c, 0, x, 0.4f * scale, z, 1};
-            nd.identity = false;
-            total += doc.meshes[size_t(nd.mesh)].triangles();
+            // A turn about y, uniform scale, half-buried in the ground.
+            Trs p;
+            p.t[0] = x, p.t[1] = 0.4f * scale, p.t[2] = z;
+            p.r[1] = std::sin(0.5f * ang), p.r[3] = std::cos(0.5f * ang);
+            p.s[0] = p.s[1] = p.s[2] = scale;
+            rocks[size_t(k)].push_back(p);
+            total += doc.meshes[size_t(1 + k)].triangles();
+        }
+        // One node per rock prototype, placing it by EXT_mesh_gpu_instancing.
+        for (int k = 0; k < 4; ++k) {
+            if (rocks[size_t(k)].empty()) continue;
+            doc.instance_sets.push_back(std::move(rocks[size_t(k)]));
+            Node nd;
+            nd.mesh = 1 + k;
+            nd.instances = int(doc.instance_sets.size() - 1);
             doc.nodes.push_back(nd);
         }
+    } else if (kind == "forest") {
+        // A ground quad, and P tree prototypes of T triangles each placed I times in all,
+        // I T >= triangles, P = min(256, I): T is 40 until I reaches 10^7 placements and
+        // grows with the target beyond, so unique triangles are P / I of the instanced ones
+        // (2.6e6 of 1e11 at the top).
+        doc.materials.push_back({"ground", 0.35f, 0.3f, 0.2f});
+        doc.materials.push_back({"bark", 0.3f, 0.22f, 0.15f});
+        doc.materials.push_back({"leaf", 1.0f, 1.0f, 1.0f, 0, true});
+        doc.images.push_back(leaf_png(64));
+        constexpr uint64_t kMaxPlacements = 10'000'000, kPrototypes = 256;
+        const uint64_t per_tree = std::max<uint64_t>(40, ceil_div(triangles, kMaxPlacements));
+        const uint64_t placements = std::max<uint64_t>(1, ceil_div(triangles > 2 ? triangles - 2 : 1, per_tree));
+        const uint64_t prototypes = std::min(kPrototypes, placements);
+        // Trees about 5 apart on a square.
+        const float side = 5.0f * std::sqrt(float(placements)), half = 0.5f * side;
+        MeshData ground;
+        ground.name = "ground";
+        ground.positions = {{-half, 0, -half}, {half, 0, -half}, {half, 0, half}, {-half, 0, half}};
+        ground.indices = {0, 2, 1, 0, 3, 2};
+        doc.meshes.push_back(std::move(ground));
+        doc.nodes.push_back({0});
+        for (uint64_t k = 0; k < prototypes; ++k) {
+            MeshData trunk, leaves;
+            trunk.name = "trunk" + std::to_string(k);
+            leaves.name = "leaves" + std::to_string(k);
+            tree(seed * 7919 + k, per_tree, trunk, leaves);
+            doc.meshes.push_back(std::move(trunk));
+            doc.meshes.push_back(std::move(leaves));
+        }
+        // Placements, each a prototype at random: a turn about y, a scale of 0.8-1.2
+        // (a little taller or squatter).
+        std::mt19937_64 rng(seed);
+        std::uniform_real_distribution<float> u01(0.0f, 1.0f);
+        std::vector<std::vector<Trs>> sets(prototypes);
+        for (uint64_t i = 0; i < placements; ++i) {
+            Trs p;
+            p.t[0] = -half + side * u01(rng), p.t[2] = -half + side * u01(rng);
+            const float ang = 6.2831853f * u01(rng), scale = 0.8f + 0.4f * u01(rng);
+            p.r[1] = std::sin(0.5f * ang), p.r[3] = std::cos(0.5f * ang);
+            p.s[0] = p.s[2] = scale, p.s[1] = scale * (0.9f + 0.2f * u01(rng));
+            sets[rng() % prototypes].push_back(p);
+        }
+        // The trunk and the leaves of a prototype share its placements' accessors.
+        for (uint64_t k = 0; k < prototypes; ++k) {
+            if (sets[k].empty()) continue;
+            doc.instance_sets.push_back(std::move(sets[k]));
+            const int set = int(doc.instance_sets.size() - 1);
+            for (int part = 0; part < 2; ++part) {
+                Node nd;
+                nd.mesh = int(1 + 2 * k) + part;
+                nd.instances = set;
+                doc.nodes.push_back(nd);
+            }
+        }
     } else {
-        throw std::invalid_argument("unknown --kind '" + kind + "' (sphere, terrain, field, sliver)");
+        throw std::invalid_argument("unknown --kind '" + kind + "' (sphere, terrain, field, sliver, forest)");
     }
     return doc;
 }
@@ -423,7 +691,7 @@ int main(int argc, char** argv) {
     CLI::App app{"Procedural triangle meshes for benchmarks, written as binary glTF (.glb)."};
     std::string kind = "sphere", out;
     uint64_t triangles = 100000, seed = 1;
-    app.add_option("--kind", kind, "sphere | terrain | field | sliver (default sphere)");
+    app.add_option("--kind", kind, "sphere | terrain | field | sliver | forest (default sphere)");
     app.add_option("--triangles,-n", triangles, "At least this many triangles after instancing (default 100000)");
     app.add_option("--seed", seed, "Random seed (default 1)");
     app.add_option("-o,--output", out, "Output .glb file")->required();
@@ -442,8 +710,10 @@ int main(int argc, char** argv) {
         tools::memory::set_stage("writing the file");
         scenegen::write_glb(out, doc);
         const double s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-        std::printf("scenegen: wrote %s: %s, %llu triangles after instancing (%zu meshes, %zu nodes), %.2f s\n",
-                    out.c_str(), kind.c_str(), (unsigned long long)doc.instanced_triangles(), doc.meshes.size(),
+        std::printf("scenegen: wrote %s: %s, %llu triangles after instancing, %llu unique, %llu instances "
+                    "(%zu meshes, %zu nodes), %.2f s\n",
+                    out.c_str(), kind.c_str(), (unsigned long long)doc.instanced_triangles(),
+                    (unsigned long long)doc.unique_triangles(), (unsigned long long)doc.instances(), doc.meshes.size(),
                     doc.nodes.size(), s);
     } catch (const std::bad_alloc& e) {
         tools::memory::out_of_memory(e);

@@ -420,6 +420,7 @@ private:
     std::set<std::string> ignored_material_features_;
     uint64_t elements_ = 0;
     uint64_t decoded_elements_ = 0;
+    uint64_t instancing_nodes_ = 0, instance_copies_ = 0;  // EXT_mesh_gpu_instancing
     int cameras_seen_ = 0;
 };
 
@@ -1223,7 +1224,8 @@ void Loader::add_gpu_instances(int ni, const Mat4f& world, const tinygltf::Value
         if (!sc.empty()) sm = Mat4f::scale({sc[3 * k], sc[3 * k + 1], sc[3 * k + 2]});
         add_mesh_instance(ni, world * tm * rm * sm);
     }
-    if (count > 1) note(desc + ": " + std::to_string(count) + " instances, each loaded as its own copy");
+    ++instancing_nodes_;
+    instance_copies_ += count;
 }
 
 void Loader::add_mesh_instance(int ni, const Mat4f& world) {
@@ -1301,6 +1303,10 @@ void Loader::run() {
     scene_.up = Vec3f{0.0f, 1.0f, 0.0f};
     check_extensions();
     traverse(root_nodes());
+    if (instancing_nodes_)
+        note("EXT_mesh_gpu_instancing: " + std::to_string(instance_copies_) + " instances on " +
+             std::to_string(instancing_nodes_) + (instancing_nodes_ == 1 ? " node" : " nodes") +
+             ", each loaded as its own copy");
     if (scene_.num_triangles() == 0) fail("the scene has no triangles to render");
 
     // Images nobody needed and that could not be read: say so, once each.
