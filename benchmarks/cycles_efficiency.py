@@ -32,11 +32,12 @@ import hashlib
 import json
 import os
 import re
-import subprocess
 import sys
 
 import numpy as np
 import OpenImageIO as oiio
+
+from cycles_compare import run  # one way of running a render and keeping its log
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 ROOT = os.path.dirname(HERE)
@@ -61,14 +62,6 @@ def rel_rmse(img, ref):
     keep = (ref.max(-1) < 5)[..., None].repeat(3, -1)  # the light panel left out
     e = ((img - ref) / (ref + 0.01))[keep]
     return float(np.sqrt(np.mean(e * e)))
-
-
-def run(cmd, log):
-    print('+ ' + ' '.join(cmd), file=sys.stderr, flush=True)
-    with open(log, 'w') as f:
-        p = subprocess.run(cmd, stdout=f, stderr=subprocess.STDOUT)
-    if p.returncode != 0:
-        sys.exit(f'failed (status {p.returncode}); see {log}')
 
 
 def cycles(scene, spp, seed, a, reference=False):
