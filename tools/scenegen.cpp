@@ -83,6 +83,12 @@ struct Document {
     std::vector<MaterialData> materials;
     std::vector<std::vector<Trs>> instance_sets;
     std::vector<std::string> images;  ///< PNG files' bytes
+    /// A perspective camera at `eye` looking at `target` (y up), written as the file's
+    /// camera when `yfov` > 0 (radians).
+    struct Camera {
+        V3 eye, target;
+        float yfov = 0;
+    } camera;
     /// Placements of a node: 1, or its instance set's size.
     uint64_t placements(const Node& nd) const {
         return nd.instances < 0 ? 1 : instance_sets[size_t(nd.instances)].size();
@@ -217,8 +223,9 @@ inline std::string to_glb(const Document& doc) {
     std::ostringstream js;
     js << "{\"asset\":{\"version\":\"2.0\",\"generator\":\"pathtracer scenegen\"},";
     if (!doc.instance_sets.empty()) js << "\"extensionsUsed\":[\"EXT_mesh_gpu_instancing\"],";
+    const bool camera = doc.camera.yfov > 0;
     js << "\"scene\":0,\"scenes\":[{\"nodes\":[";
-    for (size_t i = 0; i < doc.nodes.size(); ++i) js << (i ? "," : "") << i;
+    for (size_t i = 0; i < doc.nodes.size() + (camera ? 1 : 0); ++i) js << (i ? "," : "") << i;
     js << "]}],\"nodes\":[";
     for (size_t i = 0; i < doc.nodes.size(); ++i) {
         const Node& n = doc.nodes[i];
@@ -235,7 +242,30 @@ inline std::string to_glb(const Document& doc) {
         }
         js << "}";
     }
-    js << "],\"materials\":[";
+    if (camera) {
+        // The camera looks down its -z: the columns of its rotation are right, up and
+        // back (from the target to the eye).
+        const Document::Camera& c = doc.camera;
+        V3 back{c.eye.x - c.target.x, c.eye.y - c.target.y, c.eye.z - c.target.z};
+        auto normalise = [](V3 v) {
+            const float l = std::sqrt(v.x * v.x + v.y * v.y + v.z * v.z);
+            return V3{v.x / l, v.y / l, v.z / l};
+        };
+        back = normalise(back);
+        const V3 right = normalise({back.z, 0.0f, -back.x});  // (0, 1, 0) x back
+        const V3 up{back.y * right.z - back.z * right.y, back.z * right.x - back.x * right.z,
+                    back.x * right.y - back.y * right.x};
+        const float m[16] = {right.x, right.y, right.z, 0, up.x, up.y, up.z, 0, back.x, back.y, back.z, 0,
+                             c.eye.x, c.eye.y, c.eye.z, 1};
+        js << (doc.nodes.empty() ? "" : ",") << "{\"camera\":0,\"matrix\":[";
+        for (int k = 0; k < 16; ++k) js << (k ? "," : "") << fmt_float(m[k]);
+        js << "]}";
+    }
+    js << "]";
+    if (camera)
+        js << ",\"cameras\":[{\"type\":\"perspective\",\"perspective\":{\"yfov\":" << fmt_float(doc.camera.yfov)
+           << ",\"znear\":0.01}}]";
+    js << ",\"materials\":[";
     for (size_t i = 0; i < doc.materials.size(); ++i) {
         const MaterialData& m = doc.materials[i];
         js << (i ? "," : "") << "{\"name\":\"" << json_escape(m.name)
@@ -444,22 +474,40 @@ inline std::string png_rgba(int w, int h, const std::vector<uint8_t>& rgba) {
     return out;
 }
 
-/// A leaf for the forest's cards: a pointed ellipse along the texture's v axis, opaque
-/// inside (greens varying across it), alpha 0 outside, a vein down the middle.
+/// A spray of leaves for the forest's cards, as production foliage cards carry: seven
+/// pointed ellipses on a stem along the texture's v axis, opaque inside (greens varying
+/// along each leaf, a paler vein), alpha 0 outside.
 inline std::string leaf_png(int n) {
     std::vector<uint8_t> px(size_t(n) * size_t(n) * 4, 0);
+    struct Leaf {
+        float x, y, angle, length;
+    };
+    // Leaf bases along the stem (x = 0.5), alternating sides, shrinking toward the tip.
+    const Leaf leaves[7] = {{0.5f, 0.95f, 0.0f, 0.32f},  {0.5f, 0.8f, -0.9f, 0.34f}, {0.5f, 0.68f, 0.9f, 0.33f},
+                            {0.5f, 0.55f, -0.8f, 0.3f},  {0.5f, 0.43f, 0.8f, 0.28f}, {0.5f, 0.32f, -0.6f, 0.24f},
+                            {0.5f, 0.24f, 0.6f, 0.22f}};
     for (int y = 0; y < n; ++y)
         for (int x = 0; x < n; ++x) {
-            const float u = (float(x) + 0.5f) / float(n) * 2.0f - 1.0f, v = (float(y) + 0.5f) / float(n);
-            // Half-width along v: 0 at both tips, widest a third of the way up.
-            const float half = 0.85f * std::sin(3.14159265f * std::pow(v, 0.75f));
+            const float px_u = (float(x) + 0.5f) / float(n), px_v = (float(y) + 0.5f) / float(n);
             uint8_t* p = &px[(size_t(y) * size_t(n) + size_t(x)) * 4];
-            if (std::fabs(u) >= half) continue;
-            const bool vein = std::fabs(u) < 0.04f;
-            p[0] = uint8_t(vein ? 120 : 40 + 40 * v);
-            p[1] = uint8_t(vein ? 160 : 110 + 60 * (1.0f - std::fabs(u)));
-            p[2] = uint8_t(vein ? 60 : 30);
-            p[3] = 255;
+            if (std::fabs(px_u - 0.5f) < 0.012f && px_v > 0.2f) {  // the stem
+                p[0] = 90, p[1] = 70, p[2] = 40, p[3] = 255;
+            }
+            for (const Leaf& l : leaves) {
+                // The leaf's own frame: `along` from its base toward its tip (up the
+                // texture, turned by `angle`), `across` its width.
+                const float dx = px_u - l.x, dy = l.y - px_v;
+                const float c = std::cos(l.angle), s = std::sin(l.angle);
+                const float along = (dx * s + dy * c) / l.length, across = (dx * c - dy * s) / l.length;
+                if (along <= 0.0f || along >= 1.0f) continue;
+                const float half = 0.3f * std::sin(3.14159265f * std::pow(along, 0.75f));
+                if (std::fabs(across) >= half) continue;
+                const bool vein = std::fabs(across) < 0.025f;
+                p[0] = uint8_t(vein ? 120 : 35 + 45 * along);
+                p[1] = uint8_t(vein ? 160 : 100 + 70 * (1.0f - std::fabs(across) / half) * (1.0f - 0.4f * along));
+                p[2] = uint8_t(vein ? 60 : 25);
+                p[3] = 255;
+            }
         }
     return png_rgba(n, n, px);
 }
@@ -625,7 +673,7 @@ inline Document generate(const std::string& kind, uint64_t triangles, uint64_t s
         doc.materials.push_back({"ground", 0.35f, 0.3f, 0.2f});
         doc.materials.push_back({"bark", 0.3f, 0.22f, 0.15f});
         doc.materials.push_back({"leaf", 1.0f, 1.0f, 1.0f, 0, true});
-        doc.images.push_back(leaf_png(64));
+        doc.images.push_back(leaf_png(128));
         constexpr uint64_t kMaxPlacements = 10'000'000, kPrototypes = 256;
         const uint64_t per_tree = std::max<uint64_t>(40, ceil_div(triangles, kMaxPlacements));
         const uint64_t placements = std::max<uint64_t>(1, ceil_div(triangles > 2 ? triangles - 2 : 1, per_tree));
@@ -659,6 +707,10 @@ inline Document generate(const std::string& kind, uint64_t triangles, uint64_t s
             p.s[0] = p.s[2] = scale, p.s[1] = scale * (0.9f + 0.2f * u01(rng));
             sets[rng() % prototypes].push_back(p);
         }
+        // A camera a little above the trees, looking across the forest from its edge.
+        doc.camera.eye = {0.0f, 9.0f, half + 20.0f};
+        doc.camera.target = {0.0f, 4.0f, half - 25.0f};
+        doc.camera.yfov = 0.7f;
         // The trunk and the leaves of a prototype share its placements' accessors.
         for (uint64_t k = 0; k < prototypes; ++k) {
             if (sets[k].empty()) continue;
