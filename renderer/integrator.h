@@ -37,7 +37,14 @@ struct IntegratorSettings {
     int max_depth = 5;          ///< -m
     bool accumulate = true;     ///< -o 1 (accumulate bounces) / -o 0 (exactly -m bounces)
     bool hemisphere = false;    ///< -H: uniform hemisphere sampling for direct light
-    float rr_continue = 0.65f;  ///< --rr: Russian roulette continuation probability
+    /// --rr: Russian roulette from the second bounce. kThroughputRoulette (the default):
+    /// terminate with q = max(0, 1 - max component of beta * eta_scale), where eta_scale
+    /// undoes the 1/eta^2 radiance scaling of refractions (pbrt-v4 PathIntegrator), so a
+    /// path through mirror or glass keeps going while a dim one stops early. A value in
+    /// (0, 1]: the course's fixed continuation probability (0.65 in CS184; 1 = no roulette).
+    static constexpr float kThroughputRoulette = -1.0f;
+    float rr_continue = kThroughputRoulette;
+    bool throughput_roulette() const { return rr_continue < 0.0f; }
     std::string only;           ///< --only=direct|indirect ("" = both)
     /// --offset: how secondary rays leave surfaces (renderer/spawn.h). ErrorBound offsets
     /// by the hit point's floating-point error bound (pbrt-v4 6.8); Epsilon is the plain

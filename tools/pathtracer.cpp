@@ -15,6 +15,7 @@
 #include <chrono>
 #include <csignal>
 #include <cstdio>
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <optional>
@@ -56,6 +57,7 @@ struct Options {
     std::string backend = "custom", bvh = "sah", tri = "fast", quality = "high", camera_mode = "auto", isa = "auto";
     std::string nodes = "auto", lights_mode, offset = "error-bound", strategy = "mis", texture_filter = "trilinear";
     std::string output;
+    std::string rr = "throughput";  ///< --rr: "throughput" or a probability in (0, 1]
     std::vector<int> resolution, cell;
     std::vector<float> adaptive;
     int accumulate = 1;
@@ -155,8 +157,12 @@ void add_scene_options(CLI::App& app, Options& o) {
     app.add_option("--cam-up", o.cam_up, "Camera up X Y Z")->expected(3);
     app.add_option("--fov", o.fov, "Horizontal field of view, degrees")->check(CLI::Range(0.01f, 179.0f));
     app.add_option("--seed", o.rs.seed, "Random seed (images are identical for any -t)");
-    app.add_option("--rr", o.is.rr_continue, "Russian roulette continuation probability")
-        ->check(CLI::Range(0.01f, 1.0f));
+    app.add_option("--rr", o.rr,
+                   "Russian roulette from the second bounce: throughput (default; a path survives "
+                   "with probability equal to its throughput, pbrt-v4's rule) | P, a fixed "
+                   "continuation probability with 0 < P <= 1 (the CS184 course's roulette, which "
+                   "uses 0.65; 1 = no roulette)")
+        ->type_name("throughput|P");
     app.add_option("--offset", o.offset,
                    "How secondary rays leave surfaces: error-bound (default; offset by the hit "
                    "point's floating-point error bound, pbrt-v4 6.8, robust at any scene scale) | "
@@ -220,6 +226,15 @@ void finish_options(Options& o, const dist::World& world) {
             fail(fmt::format("-a {} {}: BATCH must be a whole number >= 1 and TOL > 0", a[0], a[1]));
         rs.adaptive_batch = int(a[0]);
         rs.adaptive_tol = a[1];
+    }
+    if (o.rr == "throughput") {
+        o.is.rr_continue = renderer::IntegratorSettings::kThroughputRoulette;
+    } else {
+        char* end = nullptr;
+        const float p = std::strtof(o.rr.c_str(), &end);
+        if (o.rr.empty() || *end != '\0' || !(p > 0.0f && p <= 1.0f))
+            fail(fmt::format("--rr {}: expected throughput or a probability P with 0 < P <= 1", o.rr));
+        o.is.rr_continue = p;
     }
     o.is.accumulate = o.accumulate == 1;
     o.is.strategy = o.strategy == "light"  ? renderer::IntegratorSettings::Strategy::Light

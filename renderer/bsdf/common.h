@@ -44,6 +44,10 @@ struct Sample {
     Vec3f weight;
     float pdf = 0.0f;
     bool delta = false;
+    /// For a transmitted wi, the relative index crossed (far side over wo's side), 1 for
+    /// reflection: the path's radiance was scaled by 1/eta^2, which Russian roulette undoes
+    /// (pbrt-v4 PathIntegrator's etaScale).
+    float eta = 1.0f;
 };
 
 }  // namespace renderer::bsdf

@@ -1,6 +1,7 @@
 // The CS184 3-2 `microfacet` BSDF: a rough conductor, f = F(wi.h) G(wo, wi) D(h) /
 // (4 cos wo cos wi) with a Beckmann D of roughness alpha and conductor Fresnel from the
-// per-channel eta and k; sampled by D(h) cos(h) as the course does (Walter et al. 2007).
+// per-channel eta and k. The course samples D(h) cos(h) (Walter et al. 2007); we sample
+// the normals wo sees (Heitz and d'Eon 2014, microfacet.h): same f, less noise.
 #pragma once
 
 #include "renderer/bsdf/microfacet.h"
@@ -25,9 +26,10 @@ struct RoughConductor {
         return dist.pdf_m(wo, h) / (4.0f * accel::dot(wo, h));
     }
     bool sample(const Vec3f& wo, float u1, float u2, float, Sample& s) const {
-        const Vec3f m = dist.sample_m(u1, u2);
+        if (wo.z <= 0) return false;
+        const Vec3f m = dist.sample_m(wo, u1, u2);
         s.wi = reflect(wo, m);
-        if (wo.z <= 0 || s.wi.z <= 0 || accel::dot(wo, m) <= 0) return false;
+        if (s.wi.z <= 0 || accel::dot(wo, m) <= 0) return false;
         s.pdf = pdf(wo, s.wi);
         s.f = f(wo, s.wi);
         if (!(s.pdf > 0)) return false;

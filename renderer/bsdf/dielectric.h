@@ -31,6 +31,7 @@ struct SmoothDielectric {
             if (!refract(wo, Vec3f(0.0f, 0.0f, 1.0f), eta, s.wi)) return false;
             s.pdf = 1.0f - pr;
             s.weight = T * ((1.0f - F) / (s.pdf * eta * eta));
+            s.eta = eta;
         }
         return s.pdf > 0;
     }

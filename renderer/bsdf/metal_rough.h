@@ -100,6 +100,7 @@ struct MetalRough {
         } else if (!RoughTransmission{dist, eta}.sample(wo, u1, u2, s.wi)) {
             return false;
         }
+        s.eta = s.wi.z < 0 ? eta : 1.0f;
         s.pdf = pdf(wo, s.wi);
         if (!(s.pdf > 0)) return false;
         s.f = f(wo, s.wi);

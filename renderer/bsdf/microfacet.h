@@ -53,7 +53,11 @@ inline float tan2_theta(const Vec3f& w) {
 }
 
 /// Beckmann distribution (Walter et al. 2007, "Microfacet Models for Refraction through
-/// Rough Surfaces"), the CS184 3-2 microfacet's. Sampled proportionally to D(m) cos(m).
+/// Rough Surfaces"), the CS184 3-2 microfacet's, sampled by its visible normals (Heitz and
+/// d'Eon 2014, "Importance Sampling Microfacet-Based BSDFs using the Distribution of
+/// Visible Normals"): only normals that wo can see are drawn, so fewer samples land below
+/// the horizon and the weight is F G / G1(wo), which stays near 1 at grazing angles where
+/// sampling D(m) cos(m) gave large weights.
 struct Beckmann {
     float alpha;
 
@@ -63,7 +67,8 @@ struct Beckmann {
         const float a2 = alpha * alpha;
         return std::exp(-tan2_theta(m) / a2) / (kPi * a2 * c2 * c2);
     }
-    /// Smith Lambda, Walter et al.'s rational approximation (eq. 27).
+    /// Smith Lambda, Walter et al.'s rational approximation (eq. 27): the course's G, used
+    /// by f, so the expected image does not change.
     float lambda(const Vec3f& w) const {
         const float t2 = tan2_theta(w);
         if (t2 == 0.0f) return 0.0f;
@@ -72,15 +77,91 @@ struct Beckmann {
         return (1.0f - 1.259f * a + 0.396f * a * a) / (3.535f * a + 2.181f * a * a);
     }
     float G(const Vec3f& wo, const Vec3f& wi) const { return 1.0f / (1.0f + lambda(wo) + lambda(wi)); }
-    Vec3f sample_m(float u1, float u2) const {
-        const float t2 = -alpha * alpha * std::log(std::max(1e-30f, 1.0f - u1));
-        const float cos_t = 1.0f / std::sqrt(1.0f + t2);
-        const float sin_t = std::sqrt(std::max(0.0f, 1.0f - cos_t * cos_t));
-        const float phi = 2.0f * kPi * u2;
-        return {sin_t * std::cos(phi), sin_t * std::sin(phi), cos_t};
+    /// Smith's exact G1 for Beckmann (Walter et al. eq. 25). The visible-normal density is
+    /// normalised by it, not by the approximation (which is off by up to ~0.3 %), so that
+    /// pdf_m is exactly the density sample_m draws from.
+    float G1_exact(const Vec3f& w) const {
+        const double t2 = double(tan2_theta(w));
+        if (t2 == 0.0) return 1.0f;
+        if (!std::isfinite(t2)) return 0.0f;
+        const double a = 1.0 / (double(alpha) * std::sqrt(t2));
+        const double lambda = -0.5 * std::erfc(a) + std::exp(-a * a) / (2.0 * a * std::sqrt(double(kPi)));
+        return float(1.0 / (1.0 + std::max(0.0, lambda)));
     }
-    /// Density of sample_m over microfacet normals (solid angle).
-    float pdf_m(const Vec3f&, const Vec3f& m) const { return D(m) * std::abs(m.z); }
+    /// A visible normal for wo (wo.z > 0): Heitz and d'Eon 2014, section 4: stretch wo to
+    /// roughness 1, draw the slopes of the normals it sees, rotate back and unstretch.
+    Vec3f sample_m(const Vec3f& wo, float u1, float u2) const {
+        const Vec3f ws = accel::normalize(Vec3f(alpha * wo.x, alpha * wo.y, wo.z));
+        const double sin_t = std::sqrt(std::max(0.0, 1.0 - double(ws.z) * double(ws.z)));
+        double cos_phi = 1.0, sin_phi = 0.0;
+        if (sin_t > 0) {
+            cos_phi = double(ws.x) / sin_t;
+            sin_phi = double(ws.y) / sin_t;
+        }
+        double sx, sy;
+        visible_slopes(double(ws.z), sin_t, u1, u2, sx, sy);
+        const double x = alpha * (cos_phi * sx - sin_phi * sy);
+        const double y = alpha * (sin_phi * sx + cos_phi * sy);
+        return accel::normalize(Vec3f(float(-x), float(-y), 1.0f));
+    }
+    /// Density of sample_m(wo) over microfacet normals: D_wo(m) = G1(wo) max(0, wo.m) D(m) / wo.z.
+    float pdf_m(const Vec3f& wo, const Vec3f& m) const {
+        return G1_exact(wo) * std::max(0.0f, accel::dot(wo, m)) * D(m) / std::abs(wo.z);
+    }
+
+private:
+    /// Inverse error function: Winitzki's closed form (2008, "A handy approximation for the
+    /// error function and its inverse"; relative error ~2e-3) polished by Newton steps on
+    /// std::erf to double precision.
+    static double erfinv(double z) {
+        z = std::clamp(z, -1.0 + 1e-15, 1.0 - 1e-15);
+        const double a = 0.147, l = std::log((1.0 - z) * (1.0 + z));
+        const double b = 2.0 / (kPi * a) + 0.5 * l;
+        double x = std::copysign(std::sqrt(std::sqrt(b * b - l / a) - b), z);
+        for (int i = 0; i < 3; ++i) {
+            const double err = std::erf(x) - z;
+            x -= err / (2.0 / std::sqrt(double(kPi)) * std::exp(-x * x));
+        }
+        return x;
+    }
+    /// Slopes (sx, sy) of a visible normal of the roughness-1 Beckmann surface seen from
+    /// polar angle theta with the azimuth along +x (Heitz and d'Eon 2014, appendix). sy is
+    /// Gaussian with variance 1/2; sx has density proportional to (cot theta - sx)
+    /// exp(-sx^2) on sx < cot theta, with the CDF
+    ///   C(sx) = [cot theta sqrt(pi)/2 (1 + erf sx) + exp(-sx^2)/2] / C(cot theta),
+    /// inverted by Newton's method safeguarded by bisection (the paper's closed-form fit
+    /// is discontinuous, which hurts stratified samples; pbrt-v3 inverts numerically too).
+    static void visible_slopes(double cos_t, double sin_t, float u1, float u2, double& sx, double& sy) {
+        sy = erfinv(2.0 * std::clamp(double(u2), 1e-9, 1.0 - 1e-9) - 1.0);
+        const double u = std::clamp(double(u1), 1e-9, 1.0 - 1e-9);
+        if (sin_t < 1e-7) {  // normal incidence: every normal is visible, sx is Gaussian too
+            sx = erfinv(2.0 * u - 1.0);
+            return;
+        }
+        const double cot = cos_t / sin_t, sqrt_pi = std::sqrt(double(kPi));
+        const auto cdf = [&](double x) {
+            return cot * sqrt_pi * 0.5 * std::erfc(-x) + 0.5 * std::exp(-x * x);
+        };
+        const double total = cdf(cot);
+        // Start from pbrt-v3's fit of the inverse in the erf domain (a good first guess
+        // only; the root is found below to double precision).
+        const double theta = std::acos(std::clamp(cos_t, -1.0, 1.0));
+        const double fit = 1.0 + theta * (-0.876 + theta * (0.4265 - 0.0594 * theta));
+        const double c = std::erf(cot);
+        double x = erfinv(std::clamp(c - (1.0 + c) * std::pow(1.0 - u, fit), -1.0 + 1e-12, c));
+        double lo = -12.0, hi = cot;
+        for (int i = 0; i < 60; ++i) {
+            if (!(x > lo && x < hi)) x = 0.5 * (lo + hi);
+            const double g = cdf(x) / total - u;
+            if (std::abs(g) < 1e-12) break;
+            if (g > 0) hi = x;
+            else lo = x;
+            const double density = (cot - x) * std::exp(-x * x) / total;
+            x = density > 0 ? x - g / density : 0.5 * (lo + hi);
+            if (hi - lo < 1e-13) break;
+        }
+        sx = std::clamp(x, lo, hi);
+    }
 };
 
 /// GGX / Trowbridge-Reitz (Walter et al. 2007) with height-correlated Smith masking-

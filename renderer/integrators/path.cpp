@@ -49,6 +49,19 @@ Vec3f sum_light_samples(const LightSet& lights, int light_samples, const Interac
     return sum;
 }
 
+/// Russian roulette on the throughput (pbrt-v4 PathIntegrator, after Arvo and Kirk 1990):
+/// a path whose throughput has fallen below 1 survives with probability equal to it (its
+/// largest channel, with refraction's 1/eta^2 undone by eta_scale), and survivors carry
+/// 1/(1 - q). Unlike a fixed probability it never cuts a bright path through a mirror or
+/// glass, and stops dim ones sooner. False: the path ends.
+bool throughput_roulette(Vec3f& beta, float eta_scale, float u) {
+    const float q = std::max(0.0f, 1.0f - accel::max_component(beta * eta_scale));
+    if (q <= 0.0f) return true;
+    if (u < q) return false;
+    beta = beta / (1.0f - q);
+    return true;
+}
+
 /// Veach's power heuristic (beta = 2; Veach 1997, 9.2.4): the weight of the strategy
 /// with density `a` against one with density `b` (each already times its sample count).
 float mis_weight(float a, float b) {
@@ -107,6 +120,7 @@ Vec3f PathIntegrator::li(const accel::Ray& camera_ray, SampleContext& ctx) const
     }
     if (counts(0)) L += lights_.emitted(it, wo);
     Vec3f beta(1.0f);
+    float eta_scale = 1.0f;  // product of eta^2 over the refractions so far
     for (int bounce = 1; bounce <= s_.max_depth; ++bounce) {
         // Non-diffuse materials take the general BSDF path; diffuse ones keep the
         // Lambert-only loop below, so a diffuse scene costs what it did before.
@@ -118,7 +132,7 @@ Vec3f PathIntegrator::li(const accel::Ray& camera_ray, SampleContext& ctx) const
             if (unlit_ && m.unlit) break;
             if (m.bsdf != scenes::BsdfKind::Diffuse) {
                 if (m.is_emissive() && !m.emitter_reflects) break;
-                if (!scatter(m, bounce, it, wo, beta, L, ctx)) break;
+                if (!scatter(m, bounce, it, wo, beta, eta_scale, L, ctx)) break;
                 continue;
             }
         }
@@ -130,9 +144,9 @@ Vec3f PathIntegrator::li(const accel::Ray& camera_ray, SampleContext& ctx) const
 
         if (counts(bounce)) L += beta * direct(it, wo, albedo, ctx);
         if (bounce == s_.max_depth) break;
-        // Russian roulette from the second bounce on: unbiased, since survivors are
-        // reweighted by 1/p.
-        if (bounce >= 2 && s_.rr_continue < 1.0f) {
+        // The course's fixed-probability roulette from the second bounce on: unbiased,
+        // since survivors are reweighted by 1/p.
+        if (!s_.throughput_roulette() && bounce >= 2 && s_.rr_continue < 1.0f) {
             if (ctx.rng.next_float() >= s_.rr_continue) break;
             beta = beta / s_.rr_continue;
         }
@@ -142,6 +156,10 @@ Vec3f PathIntegrator::li(const accel::Ray& camera_ray, SampleContext& ctx) const
         const Vec3f wi = to_world(local, it.ns);
         if (!(local.z > 0) || accel::dot(wi, it.ng) <= 0) break;
         beta *= albedo;
+        // Throughput roulette weighs the throughput after this vertex's albedo, before the
+        // ray is traced, so a terminated path costs no trace.
+        if (s_.throughput_roulette() && bounce >= 2 && !throughput_roulette(beta, eta_scale, ctx.rng.next_float()))
+            break;
         const accel::Ray ray = spawn_ray(it.p, it.p_error, it.ng, wi, scale_, s_.offset);
         if (!ctx.accel.intersect(ray, hit, ctx.stats)) break;  // environment: counted by direct()
         it = make_interaction(scene_, geometry_, ray, hit);
@@ -155,7 +173,7 @@ Vec3f PathIntegrator::li(const accel::Ray& camera_ray, SampleContext& ctx) const
 }
 
 bool PathIntegrator::scatter(const scenes::Material& m, int bounce, Interaction& it, Vec3f& wo, Vec3f& beta,
-                             Vec3f& L, SampleContext& ctx) const {
+                             float& eta_scale, Vec3f& L, SampleContext& ctx) const {
     // The local frame faces wo; `front` remembers which side of the surface that is, for
     // a dielectric's relative index.
     const bool front = accel::dot(it.ng, wo) > 0;
@@ -178,7 +196,7 @@ bool PathIntegrator::scatter(const scenes::Material& m, int bounce, Interaction&
     // other half of the MIS estimate of direct light (and all of it through delta lobes).
     const bool last = bounce == s_.max_depth;
     if (last && !counts(bounce)) return false;
-    if (!last && bounce >= 2 && s_.rr_continue < 1.0f) {
+    if (!s_.throughput_roulette() && !last && bounce >= 2 && s_.rr_continue < 1.0f) {
         if (ctx.rng.next_float() >= s_.rr_continue) return false;
         beta = beta / s_.rr_continue;
     }
@@ -197,6 +215,11 @@ bool PathIntegrator::scatter(const scenes::Material& m, int bounce, Interaction&
     if ((accel::dot(wi, it.ng) > 0) != (bs.wi.z > 0)) return false;
     beta *= bs.weight;
     if (is_black(beta)) return false;
+    eta_scale *= bs.eta * bs.eta;
+    // Not at the last vertex: its BSDF sample only finds emission, and ends the path anyway.
+    if (s_.throughput_roulette() && !last && bounce >= 2 &&
+        !throughput_roulette(beta, eta_scale, ctx.rng.next_float()))
+        return false;
     const accel::Ray ray = spawn_ray(it.p, it.p_error, it.ng, wi, scale_, s_.offset);
     accel::Hit hit;
     const Vec3f n_here = it.ns, p_here = it.p;

@@ -1,5 +1,6 @@
 // Path tracing with next-event estimation (light sampling) or uniform hemisphere
-// sampling (-H) for the direct part, Russian roulette, and the course's -m/-o semantics.
+// sampling (-H) for the direct part, Russian roulette (on the throughput, or the course's
+// fixed probability), and the course's -m/-o semantics.
 // `direct` is the same integrator with the depth fixed at 1.
 #pragma once
 
@@ -26,8 +27,9 @@ private:
     Vec3f direct_hemisphere(const Interaction& it, const Vec3f& albedo, SampleContext& ctx) const;
     /// One vertex on a non-diffuse material: direct light through its BSDF (skipped for
     /// delta lobes), then a BSDF-sampled bounce. Updates it, wo, beta; false ends the path.
-    bool scatter(const scenes::Material& m, int bounce, Interaction& it, Vec3f& wo, Vec3f& beta, Vec3f& L,
-                 SampleContext& ctx) const;
+    /// eta_scale: the product of eta^2 over the refractions so far (for the roulette).
+    bool scatter(const scenes::Material& m, int bounce, Interaction& it, Vec3f& wo, Vec3f& beta,
+                 float& eta_scale, Vec3f& L, SampleContext& ctx) const;
     Vec3f direct_bsdf(const Interaction& it, const Vec3f& wo_l, const Vec3f& t, const Vec3f& bt,
                       const bsdf::Bsdf& b, SampleContext& ctx) const;
     /// Is the light sample's shadow ray (segment, or ray for infinitely far lights) blocked?

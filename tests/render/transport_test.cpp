@@ -68,6 +68,39 @@ TEST(WhiteFurnace, ConvergesToLeOverOneMinusAlbedo) {
     }
 }
 
+// The default roulette weighs the throughput (pbrt-v4): it stays unbiased, and it never
+// ends a path whose throughput is still 1 (a white furnace), where the course's fixed
+// probability would.
+TEST(ThroughputRoulette, UnbiasedAndKeepsBrightPaths) {
+    for (float a : {0.5f, 0.9f}) {
+        IntegratorSettings is;
+        ASSERT_TRUE(is.throughput_roulette()) << "throughput roulette is the default";
+        is.max_depth = 100;
+        World s = furnace(a, 1.0f, is);
+        const double expected = (1.0 - std::pow(a, 101)) / (1.0 - a);
+        Estimate e = estimate(*s.integrator, *s.accel, ray_to({0.1f, 0.2f, 0.0f}, {1, 0.3f, 0.2f}), 20000, 5);
+        EXPECT_NEAR(e.mean, expected, 3.0 * e.se + 1e-6) << "albedo " << a;
+    }
+    // Albedo 1: every path runs to the depth cap: one bounce ray per vertex but the last.
+    for (float rr : {IntegratorSettings::kThroughputRoulette, 0.65f}) {
+        IntegratorSettings is;
+        is.max_depth = 8;
+        is.rr_continue = rr;
+        World s = furnace(1.0f, 1.0f, is);
+        accel::TraceStats st;
+        const int n = 200;
+        for (int i = 0; i < n; ++i) {
+            Rng rng(1, uint64_t(i));
+            SampleContext ctx{*s.accel, st, rng, {}};
+            s.integrator->li(ray_to({0, 0, 0}, {0, 0, 1}), ctx);
+        }
+        if (rr < 0)
+            EXPECT_EQ(st.rays, uint64_t(n) * 8u) << "camera ray + 7 bounces, none cut";
+        else
+            EXPECT_LT(st.rays, uint64_t(n) * 8u * 3u / 4u) << "the fixed roulette cuts paths";
+    }
+}
+
 // The depth cap alone: -m 1 is emission + one bounce of direct light, exactly Le (1 + a).
 TEST(WhiteFurnace, DepthOneIsEmissionPlusDirect) {
     IntegratorSettings is;
