@@ -65,6 +65,8 @@ bool BvhBase::build(std::span<const GeometryView> geometry, const AccelOptions& 
     const char* test = opt.triangle == TriangleTest::Watertight ? "watertight" : "fast";
     bool masked = false;
     for (const GeometryView& g : geometry_) masked |= g.masked();
+    // geometry_ is never resized after this, and a move (adopt) keeps its array.
+    wide_.geometry = masked ? geometry_.data() : nullptr;
     info_.backend = std::string("custom(") + split + ", " + test + ", " + kernel + ", " +
                     layout_name(compressed ? NodeLayout::Quantized : NodeLayout::Float) +
                     (masked ? ", masked" : "") + ")";

@@ -507,23 +507,21 @@ PT_INLINE inline void prefetch_leaves(const Block* blocks, uint32_t hint) {
 /// the Masked instantiations below call it, so a scene without masked geometry runs
 /// kernels that contain no trace of it. Written here rather than through lane_primitive
 /// (wide.h), whose out-of-line copy this file's flags could make the linker's pick.
-PT_INLINE inline bool keep_hit(const WideBvh& w, const GeometryView* geometry, const Block& b, int lane, float u,
-                               float v, const Ray& ray) {
+PT_INLINE inline bool keep_hit(const WideBvh& w, const Block& b, int lane, float u, float v, const Ray& ray) {
     const uint32_t geom = w.lane_geom.empty() ? w.one_geom : w.lane_geom[size_t(&b - w.blocks.data()) * 4 + size_t(lane)];
-    const GeometryView& g = geometry[geom];
+    const GeometryView& g = w.geometry[geom];
     return !g.filter || g.filter(g.filter_user, geom, b.prim[lane], u, v, ray);
 }
 
 /// Whether some hit lane of a leaf test (lanes 4k..4k+3 from block b[k]) survives the
 /// filter: the any-hit query's test on masked scenes.
 template <class L>
-PT_INLINE inline bool any_kept(const L& lanes, unsigned hit, const Block* b, const WideBvh& w,
-                               const GeometryView* geometry, const Ray& ray) {
+PT_INLINE inline bool any_kept(const L& lanes, unsigned hit, const Block* b, const WideBvh& w, const Ray& ray) {
     alignas(64) float tt[16], uu[16], vv[16];
     lanes.store(tt, uu, vv);
     for (; hit; hit &= hit - 1) {
         const int l = __builtin_ctz(hit);
-        if (keep_hit(w, geometry, b[l >> 2], l & 3, uu[l], vv[l], ray)) return true;
+        if (keep_hit(w, b[l >> 2], l & 3, uu[l], vv[l], ray)) return true;
     }
     return false;
 }
@@ -551,11 +549,13 @@ struct Closest {
 /// start) measured 10-25 % of a shadow or diffuse ray on the course meshes, whose rays
 /// all start inside the scene box (accel/DECISIONS.md, "no scalar root test").
 ///
-/// Masked (scenes with some GeometryView::filter; `geometry` the views, else unused): a
-/// lane that would become the closest hit is kept only if keep_hit says so; a dropped
-/// one leaves the segment as it was, so traversal goes on behind it.
+/// Masked (scenes with some GeometryView::filter, WideBvh::geometry set): a lane that
+/// would become the closest hit is kept only if keep_hit says so; a dropped one leaves
+/// the segment as it was, so traversal goes on behind it. The views come through w, not
+/// as an argument, so that the opaque instantiations keep the signature, and so the
+/// instructions, they had before filters existed.
 template <class P, TriangleTest Test, bool Count, bool HasSpheres, bool Masked = false>
-Closest traverse(const WideBvh& w, const Ray& ray_in, TraceStats& stats, const GeometryView* geometry = nullptr) {
+Closest traverse(const WideBvh& w, const Ray& ray_in, TraceStats& stats) {
     const typename P::Node* nodes = node_array<typename P::Node>(w);
     if (!nodes) return {};
     // A local copy: through a reference every store to t could alias the ray and the
@@ -619,7 +619,7 @@ Closest traverse(const WideBvh& w, const Ray& ray_in, TraceStats& stats, const G
                         const int l = __builtin_ctz(hit);
                         hit &= hit - 1;
                         const Block* hb = b + (l >> 2);
-                        if (tt[l] <= t && (!Masked || keep_hit(w, geometry, *hb, l & 3, uu[l], vv[l], ray_in)))
+                        if (tt[l] <= t && (!Masked || keep_hit(w, *hb, l & 3, uu[l], vv[l], ray_in)))
                             t = tt[l], u = uu[l], v = vv[l], at = {hb, l & 3};
                     }
                     b += two;
@@ -634,7 +634,7 @@ Closest traverse(const WideBvh& w, const Ray& ray_in, TraceStats& stats, const G
                 do {
                     const int l = __builtin_ctz(hit);
                     hit &= hit - 1;
-                    if (tt[l] <= t && (!Masked || keep_hit(w, geometry, *b, l, uu[l], vv[l], ray_in)))
+                    if (tt[l] <= t && (!Masked || keep_hit(w, *b, l, uu[l], vv[l], ray_in)))
                         t = tt[l], u = uu[l], v = vv[l], at = {b, l};
                 } while (hit);
             }
@@ -719,7 +719,7 @@ Closest traverse(const WideBvh& w, const Ray& ray_in, TraceStats& stats, const G
 /// every mesh (same decision). Counting as in traverse.
 /// Masked: as in traverse, a hit lane occludes only if keep_hit keeps it.
 template <class P, TriangleTest Test, bool Count, bool HasSpheres, bool Masked = false>
-bool occlude(const WideBvh& w, const Ray& ray_in, TraceStats& stats, const GeometryView* geometry = nullptr) {
+bool occlude(const WideBvh& w, const Ray& ray_in, TraceStats& stats) {
     const typename P::Node* nodes = node_array<typename P::Node>(w);
     if (!nodes) return false;
     const Ray ray = ray_in;
@@ -763,10 +763,16 @@ bool occlude(const WideBvh& w, const Ray& ray_in, TraceStats& stats, const Geome
                         if constexpr (Count)
                             tests += unsigned(__builtin_popcount(filled(b[1])) + __builtin_popcount(filled(b[2]))) +
                                      (four ? unsigned(__builtin_popcount(filled(b3))) : 0u);
-                        const auto lanes = tri16_mt(b[0], b[1], b[2], b3, lr, t);
-                        const unsigned hit = lanes.mask & (four ? 0xFFFFu : 0x0FFFu);
-                        if (Masked ? hit && any_kept(lanes, hit, b, w, geometry, ray_in) : hit != 0)
-                            return finish(true);
+                        // Masked or not, two statements: the opaque one written as it
+                        // was before filters, so it compiles to the same instructions.
+                        if constexpr (!Masked) {
+                            if (tri16_mt(b[0], b[1], b[2], b3, lr, t).mask & (four ? 0xFFFFu : 0x0FFFu))
+                                return finish(true);
+                        } else {
+                            const auto lanes = tri16_mt(b[0], b[1], b[2], b3, lr, t);
+                            const unsigned hit = lanes.mask & (four ? 0xFFFFu : 0x0FFFu);
+                            if (hit && any_kept(lanes, hit, b, w, ray_in)) return finish(true);
+                        }
                         b += 2 + four;
                         continue;
                     }
@@ -774,17 +780,23 @@ bool occlude(const WideBvh& w, const Ray& ray_in, TraceStats& stats, const Geome
                     const bool two = end - b >= 2;
                     const Block& b1 = two ? b[1] : b[0];
                     if constexpr (Count) tests += two ? unsigned(__builtin_popcount(filled(b1))) : 0u;
-                    const auto lanes = tri8<Test>(b[0], b1, lr, t);
-                    const unsigned hit = lanes.mask & (two ? 0xFFu : 0x0Fu);
-                    if (Masked ? hit && any_kept(lanes, hit, b, w, geometry, ray_in) : hit != 0)
-                        return finish(true);
+                    if constexpr (!Masked) {  // as above
+                        if (tri8<Test>(b[0], b1, lr, t).mask & (two ? 0xFFu : 0x0Fu)) return finish(true);
+                    } else {
+                        const auto lanes = tri8<Test>(b[0], b1, lr, t);
+                        const unsigned hit = lanes.mask & (two ? 0xFFu : 0x0Fu);
+                        if (hit && any_kept(lanes, hit, b, w, ray_in)) return finish(true);
+                    }
                     b += two;
                     continue;
                 }
 #endif
-                const auto lanes = tri4<Test>(*b, lr, t);
-                if (Masked ? lanes.mask && any_kept(lanes, lanes.mask, b, w, geometry, ray_in) : lanes.mask != 0)
-                    return finish(true);
+                if constexpr (!Masked) {  // as above
+                    if (tri4<Test>(*b, lr, t).mask) return finish(true);
+                } else {
+                    const auto lanes = tri4<Test>(*b, lr, t);
+                    if (lanes.mask && any_kept(lanes, lanes.mask, b, w, ray_in)) return finish(true);
+                }
             }
         } else {
             prefetch_leaves(blocks, count);
@@ -853,18 +865,16 @@ class MaskedKernel final : public BvhBase {
 public:
     bool intersect(const Ray& ray, Hit& hit, TraceStats& stats) const override {
         ++stats.rays;
-        const GeometryView* g = geometry_.data();
-        const Closest c = stats.counting ? traverse<P, Test, true, true, true>(wide_, ray, stats, g)
-                                         : traverse<P, Test, false, true, true>(wide_, ray, stats, g);
+        const Closest c = stats.counting ? traverse<P, Test, true, true, true>(wide_, ray, stats)
+                                         : traverse<P, Test, false, true, true>(wide_, ray, stats);
         if (!c.at.block) return false;
         finish(c.at, ray, c.t, c.u, c.v, hit);
         return true;
     }
     bool occluded(const Ray& ray, TraceStats& stats) const override {
         ++stats.shadow_rays;
-        const GeometryView* g = geometry_.data();
-        return stats.counting ? occlude<P, Test, true, true, true>(wide_, ray, stats, g)
-                              : occlude<P, Test, false, true, true>(wide_, ray, stats, g);
+        return stats.counting ? occlude<P, Test, true, true, true>(wide_, ray, stats)
+                              : occlude<P, Test, false, true, true>(wide_, ray, stats);
     }
 };
 
