@@ -21,7 +21,7 @@ float surface_alpha(const AlphaTest& a, uint32_t prim, float u, float v) {
         const float w0 = 1.0f - u - v;
         uv = {p.x * w0 + q.x * u + r.x * v, p.y * w0 + q.y * u + r.y * v};
     }
-    return a.factor * lookup(*a.texture, uv, kNoFootprint, TextureFilter::Bilinear).a;
+    return a.factor * lookup_alpha(*a.texture, uv);
 }
 
 namespace {

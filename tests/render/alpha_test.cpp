@@ -336,3 +336,37 @@ TEST(AlphaPlugin, MaskedGeometryIsRefusedByPlugins) {
         EXPECT_NE(std::string(e.what()).find("masked"), std::string::npos) << e.what();
     }
 }
+
+// The alpha test reads the alpha channel alone (lookup_alpha); it must be the bilinear
+// lookup's alpha bit for bit, in every texel format and for uv outside [0, 1] (wrapped),
+// and 1 for a texture that stores no alpha.
+TEST(AlphaLookup, AlphaAloneIsTheBilinearLookupsAlpha) {
+    std::mt19937 rng(5);
+    std::uniform_int_distribution<int> byte(0, 255);
+    std::uniform_real_distribution<float> coord(-1.5f, 2.5f);
+    for (scenes::TexelFormat f : {scenes::TexelFormat::U8, scenes::TexelFormat::U16, scenes::TexelFormat::F16,
+                                  scenes::TexelFormat::F32})
+        for (const char* channels : {"RGBA", "GA", "A"}) {
+            scenes::Texture t = scenes::Texture::make("t", 7, 5, f, channels);
+            t.srgb = f == scenes::TexelFormat::U8;
+            for (uint8_t& b : t.data) b = uint8_t(byte(rng));
+            if (f == scenes::TexelFormat::F16 || f == scenes::TexelFormat::F32)  // finite values in [0, 1]
+                for (size_t k = 0; k < t.data.size() / scenes::texel_format_bytes(f); ++k) {
+                    const float x = float(byte(rng)) / 255.0f;
+                    if (f == scenes::TexelFormat::F32) std::memcpy(t.data.data() + 4 * k, &x, 4);
+                    else {
+                        const uint16_t h = scenes::float_to_half(x);
+                        std::memcpy(t.data.data() + 2 * k, &h, 2);
+                    }
+                }
+            for (int k = 0; k < 500; ++k) {
+                const Vec2f uv{coord(rng), coord(rng)};
+                const float want = lookup(t, uv, kNoFootprint, TextureFilter::Bilinear).a;
+                const float got = lookup_alpha(t, uv);
+                ASSERT_EQ(std::memcmp(&want, &got, 4), 0) << channels << " format " << int(f) << " uv " << uv.x << "," << uv.y
+                                                          << ": " << got << " vs " << want;
+            }
+        }
+    const scenes::Texture rgb = scenes::Texture::from_rgb("rgb", 2, 2, std::vector<float>(12, 0.25f));
+    EXPECT_EQ(lookup_alpha(rgb, Vec2f{0.3f, 0.6f}), 1.0f);
+}
