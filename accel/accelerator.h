@@ -16,6 +16,21 @@ namespace accel {
 
 enum class GeometryType : uint8_t { Triangles, Spheres };
 
+/// A test of candidate hits on one geometry, supplied by whoever builds the views (the
+/// renderer: alpha masks and stochastic transparency, renderer/scene_geometry.h); accel/
+/// knows nothing of what it decides. Called with a triangle the ray hits at (u, v) in
+/// [t_min, t_max], before it becomes the closest hit (intersect) or an occluder
+/// (occluded); false drops the hit and traversal goes on as if the triangle were not
+/// there. Backends call it in no particular order, may call it more than once for one
+/// hit and from many threads at once, so it must be a pure function of its arguments
+/// (no per-call state, no random numbers of its own): that is what makes every backend,
+/// thread count and tile split see the same surface. `ray` is the caller's ray,
+/// unchanged. The same role as Embree's filter functions (Embree 3 API,
+/// rtcSetGeometryIntersectFilterFunction / rtcSetGeometryOccludedFilterFunction) and
+/// pbrt-v4's alpha test in GeometricPrimitive::Intersect/IntersectP.
+using HitFilter = bool (*)(const void* user, uint32_t geom_id, uint32_t prim_id, float u, float v,
+                           const Ray& ray);
+
 /// Non-owning view of one geometry. The memory must outlive the accelerator (Embree
 /// shares it without copying).
 ///  - Triangles: `positions` holds `num_vertices` Vec3f; `indices` holds 3*num_prims
@@ -30,6 +45,13 @@ struct GeometryView {
     const uint32_t* indices = nullptr;
     const float* spheres = nullptr;
     uint32_t num_prims = 0;
+    /// Masked geometry (triangles only): every candidate hit goes through filter(user,
+    /// ...). Null (the default) = opaque: no backend calls anything for it, and the
+    /// custom BVH runs its unfiltered kernel unless some geometry is masked.
+    HitFilter filter = nullptr;
+    const void* filter_user = nullptr;
+
+    bool masked() const { return filter != nullptr; }
 
     /// A triangle mesh: num_vertices positions (plus one padding element after them, for
     /// Embree's 16-byte loads) and three indices per triangle.

@@ -26,6 +26,11 @@ bool is_backend_name(const std::string& name) {
 std::unique_ptr<Accelerator> create_accelerator(const std::string& name,
                                                 std::span<const GeometryView> geometry,
                                                 const AccelOptions& options) {
+    // A filter sees one candidate per primitive; a sphere has two (entry and exit), and
+    // no backend offers the second after the first is dropped, so only triangles mask.
+    for (size_t i = 0; i < geometry.size(); ++i)
+        if (geometry[i].masked() && geometry[i].type != GeometryType::Triangles)
+            throw AccelError("geometry " + std::to_string(i) + ": hit filters apply to triangles only");
     if (name.rfind("plugin:", 0) == 0) return make_plugin(name.substr(7), geometry);
     if (name == "naive") return make_naive(geometry, options);
     if (name == "custom") return make_bvh(geometry, options);

@@ -4,14 +4,81 @@
 
 #include <chrono>
 #include <cstdio>
+#include <cstring>
+
+#include "renderer/texture.h"
 
 namespace renderer {
 
+float surface_alpha(const AlphaTest& a, uint32_t prim, float u, float v) {
+    if (!a.texture) return a.factor;
+    // The uv of make_interaction (interaction.cpp), by the same arithmetic.
+    Vec2f uv{0.0f, 0.0f};
+    const scenes::Mesh& m = *a.mesh;
+    if (!m.uvs.empty()) {
+        const uint32_t* idx = &m.indices[3 * size_t(prim)];
+        const Vec2f p = m.uvs[idx[0]], q = m.uvs[idx[1]], r = m.uvs[idx[2]];
+        const float w0 = 1.0f - u - v;
+        uv = {p.x * w0 + q.x * u + r.x * v, p.y * w0 + q.y * u + r.y * v};
+    }
+    return a.factor * lookup_alpha(*a.texture, uv);
+}
+
+namespace {
+/// SplitMix64's finaliser (Steele, Lea, Flood 2014), one word at a time.
+inline uint64_t mix(uint64_t h, uint32_t w) {
+    uint64_t x = (h ^ w) + 0x9E3779B97F4A7C15ull;
+    x = (x ^ (x >> 30)) * 0xBF58476D1CE4E5B9ull;
+    x = (x ^ (x >> 27)) * 0x94D049BB133111EBull;
+    return x ^ (x >> 31);
+}
+inline uint32_t bits(float f) {
+    uint32_t b;
+    std::memcpy(&b, &f, 4);
+    return b;
+}
+}  // namespace
+
+float blend_uniform(const accel::Ray& ray, uint32_t geom_id, uint32_t prim_id) {
+    uint64_t h = 0;
+    for (int a = 0; a < 3; ++a) h = mix(h, bits(ray.org[a]));
+    for (int a = 0; a < 3; ++a) h = mix(h, bits(ray.dir[a]));
+    h = mix(mix(h, geom_id), prim_id);
+    return float(h >> 40) * 0x1p-24f;  // 24 bits: exactly representable, < 1
+}
+
+bool alpha_filter(const void* user, uint32_t geom_id, uint32_t prim_id, float u, float v, const accel::Ray& ray) {
+    const AlphaTest& a = *static_cast<const AlphaTest*>(user);
+    const float alpha = surface_alpha(a, prim_id, u, v);
+    if (a.mode == scenes::AlphaMode::Mask) return alpha >= a.cutoff;
+    if (alpha >= 1.0f) return true;
+    if (!(alpha > 0.0f)) return false;
+    return blend_uniform(ray, geom_id, prim_id) < alpha;
+}
+
 SceneGeometry::SceneGeometry(const scenes::Scene& scene) : scene_(scene) {
+    alpha_.resize(scene.meshes.size());  // never resized again: views point into it
     for (uint32_t i = 0; i < scene.meshes.size(); ++i) {
         const scenes::Mesh& m = scene.meshes[i];
-        views_.push_back(accel::GeometryView::triangles(m.positions.data(), m.num_vertices(), m.indices.data(),
-                                                        m.num_triangles()));
+        accel::GeometryView view =
+            accel::GeometryView::triangles(m.positions.data(), m.num_vertices(), m.indices.data(), m.num_triangles());
+        if (m.material < scene.materials.size()) {
+            const scenes::Material& mat = scene.materials[m.material];
+            AlphaTest& a = alpha_[i];
+            a.mode = mat.alpha_mode;
+            a.factor = mat.base_alpha;
+            a.cutoff = mat.alpha_cutoff;
+            a.mesh = &m;
+            // A texture without stored alpha reads 1 everywhere (the loaders keep alpha
+            // only where some texel is not opaque), so the factor alone decides.
+            if (mat.albedo_texture < scene.textures.size() && scene.textures[mat.albedo_texture].slot[3] >= 0)
+                a.texture = &scene.textures[mat.albedo_texture];
+            const bool cuts = a.mode == scenes::AlphaMode::Mask    ? a.texture || a.factor < a.cutoff
+                              : a.mode == scenes::AlphaMode::Blend ? a.texture || a.factor < 1.0f
+                                                                   : false;
+            if (cuts) view.filter = alpha_filter, view.filter_user = &a;
+        }
+        views_.push_back(view);
         sources_.push_back({GeomSource::Mesh, i});
     }
     if (!scene.spheres.empty()) {

@@ -16,11 +16,50 @@ struct GeomSource {
     uint32_t mesh = 0;  ///< scene.meshes index when kind == Mesh
 };
 
+/// What the hit filter of one masked mesh reads: its material's alpha mode, the base
+/// alpha factor and cutoff, and the base colour texture when it stores alpha.
+struct AlphaTest {
+    scenes::AlphaMode mode = scenes::AlphaMode::Opaque;
+    float factor = 1.0f;  ///< Material::base_alpha
+    float cutoff = 0.5f;  ///< Material::alpha_cutoff (Mask)
+    const scenes::Texture* texture = nullptr;  ///< null: alpha is `factor` alone
+    const scenes::Mesh* mesh = nullptr;
+};
+
+/// The surface's alpha at barycentrics (u, v) of triangle `prim`: factor times the
+/// texture's alpha at the interpolated uv, read bilinearly from level 0. Level 0,
+/// because a shadow or bounce ray has no footprint, and every ray must see the same
+/// cut-out (camera rays and the shadow rays that test the same leaves); bilinear rather
+/// than nearest, so that the alpha >= cutoff contour is the smooth curve glTF viewers
+/// draw with a LINEAR magnification filter rather than a staircase of texels.
+float surface_alpha(const AlphaTest& a, uint32_t prim, float u, float v);
+
+/// The uniform number in [0, 1) that decides a BLEND hit: a hash of the ray's origin and
+/// direction bits, the geometry and the primitive. pbrt-v4 does the same for its
+/// stochastic alpha test (GeometricPrimitive::Intersect: HashFloat(r.o, r.d)); the ray is
+/// a function of its pixel sample's own stream, so the number is too, and a render is
+/// bit-identical whatever the thread count or tile split, on every backend, without a
+/// seed in accel::Ray (whose 32 bytes the plugin ABI shares). The geometry and primitive
+/// are hashed in as well, unlike pbrt-v4, so that two blended layers on one ray decide
+/// independently (with the ray alone, two layers of alpha 0.5 would both be kept or both
+/// dropped, 1/2 and 1/2 instead of 1/4 and 3/4).
+float blend_uniform(const accel::Ray& ray, uint32_t geom_id, uint32_t prim_id);
+
+/// accel::HitFilter of masked meshes (user = const AlphaTest*): Mask keeps a hit where
+/// alpha >= cutoff (glTF 2.0, 3.9.4); Blend keeps it with probability alpha, deciding by
+/// blend_uniform < alpha.
+bool alpha_filter(const void* user, uint32_t geom_id, uint32_t prim_id, float u, float v, const accel::Ray& ray);
+
 /// Geometry views over a scene (no copies of triangles), plus the packed sphere array.
 /// Geometry ids: one per mesh in scene order, then one for all spheres if any.
+/// Meshes whose material masks (Mask, Blend) get alpha_filter on their views, unless
+/// their alpha cannot fall below what is kept (no texture alpha and a factor at or above
+/// the cutoff, or 1 for Blend): those stay opaque, and so cost nothing.
 class SceneGeometry {
 public:
     explicit SceneGeometry(const scenes::Scene& scene);
+    SceneGeometry(const SceneGeometry&) = delete;  // the views point into this object
+    SceneGeometry& operator=(const SceneGeometry&) = delete;
 
     const std::vector<accel::GeometryView>& views() const { return views_; }
     const GeomSource& source(uint32_t geom_id) const { return sources_[geom_id]; }
@@ -32,6 +71,7 @@ private:
     std::vector<float> spheres_;  // xyzr
     std::vector<accel::GeometryView> views_;
     std::vector<GeomSource> sources_;
+    std::vector<AlphaTest> alpha_;  ///< one per mesh; views' filter_user point here
 };
 
 /// Builds the named backend over the scene, printing the course's build line on stderr.

@@ -255,6 +255,44 @@ Texel4 lookup(const Texture& t, const Vec2f& uv, float lod, TextureFilter f) {
     return to_source_channels(t, acc);
 }
 
+float lookup_alpha(const Texture& t, const Vec2f& uv) {
+    if (t.empty() || t.slot[3] < 0) return 1.0f;
+    const Texture::Level& l = t.levels[0];
+    const Corners c = corners(l, wrap01(uv.x), wrap01(uv.y));
+    const size_t tb = t.texel_bytes(), at = size_t(t.slot[3]) * scenes::texel_format_bytes(t.format);
+    const uint8_t* base = t.data.data() + l.offset + at;
+    const auto alpha = [&](int x, int y) -> float {
+        const uint8_t* p = base + (size_t(y) * l.width + size_t(x)) * tb;
+        switch (t.format) {
+            case TexelFormat::U8: return float(p[0]) * (1.0f / 255.0f);
+            case TexelFormat::U16: {
+                uint16_t u;
+                std::memcpy(&u, p, 2);
+                return float(u) * (1.0f / 65535.0f);
+            }
+            case TexelFormat::F16: {
+                uint16_t u;
+                std::memcpy(&u, p, 2);
+                return scenes::half_to_float(u);
+            }
+            case TexelFormat::F32: {
+                float f;
+                std::memcpy(&f, p, 4);
+                return f;
+            }
+        }
+        return 1.0f;
+    };
+    // bilinear's weights, products and order of additions, so the value is its bits.
+    const float wx1 = c.fx, wx0 = 1.0f - c.fx, wy1 = c.fy, wy0 = 1.0f - wy1;
+    float a = 0.0f;
+    a += wx0 * wy0 * alpha(c.x0, c.y0);
+    a += wx1 * wy0 * alpha(c.x1, c.y0);
+    a += wx0 * wy1 * alpha(c.x0, c.y1);
+    a += wx1 * wy1 * alpha(c.x1, c.y1);
+    return a;
+}
+
 Texel4 lookup(const Texture& t, const Vec2f& uv, const UvFootprint& duv, TextureFilter filter) {
     return lookup(t, uv, uv_lod(duv), filter);
 }

@@ -70,6 +70,11 @@ float uv_lod(const UvFootprint& duv);
 Texel4 lookup(const scenes::Texture& t, const Vec2f& uv, float lod, TextureFilter filter);
 Texel4 lookup(const scenes::Texture& t, const Vec2f& uv, const UvFootprint& duv, TextureFilter filter);
 
+/// lookup(t, uv, ..., Bilinear).a, bit for bit, reading the alpha channel alone (1 where
+/// the texture stores none): the alpha test of masked geometry, called per candidate hit
+/// (renderer/scene_geometry.h), where decoding the colour channels too cost the time.
+float lookup_alpha(const scenes::Texture& t, const Vec2f& uv);
+
 /// One texel of one level, unfiltered (x < that level's width, y < its height).
 Texel4 fetch(const scenes::Texture& t, uint32_t level, uint32_t x, uint32_t y);
 

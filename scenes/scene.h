@@ -146,6 +146,14 @@ enum class BsdfKind : uint8_t {
     MetallicRoughness,  ///< glTF 2.0 core PBR (+ KHR_materials_transmission / _ior)
 };
 
+/// How a material's alpha (Material::base_alpha times the alpha of albedo_texture) covers
+/// its surface: glTF 2.0 material.alphaMode (spec section 3.9.4, "Alpha Coverage").
+/// Opaque ignores alpha. Mask: fully opaque where alpha >= alpha_cutoff, absent
+/// elsewhere. Blend: a ray sees the surface with probability alpha and passes through
+/// it otherwise, which in expectation is the spec's "over" compositing (stochastic
+/// transparency; the renderer's hit filter, renderer/scene_geometry.h).
+enum class AlphaMode : uint8_t { Opaque, Mask, Blend };
+
 /// A surface's material. Emissive materials emit and do not reflect (the BSDF is ignored
 /// when emission is non-zero), unless `emitter_reflects` is set (a surface that does
 /// both, e.g. a white-furnace enclosure).
@@ -182,6 +190,9 @@ struct Material {
     /// `albedo_texture`) as radiance, with no lighting; every other ray finds it black
     /// (it neither reflects nor lights anything). One-sided unless `double_sided`.
     bool unlit = false;
+    AlphaMode alpha_mode = AlphaMode::Opaque;
+    float alpha_cutoff = 0.5f;  ///< Mask only: the glTF alphaCutoff (default 0.5)
+    float base_alpha = 1.0f;    ///< the alpha of glTF baseColorFactor, in [0, 1]
 
     bool is_emissive() const {
         return emission.x > 0.0f || emission.y > 0.0f || emission.z > 0.0f;

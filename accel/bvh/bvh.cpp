@@ -63,8 +63,13 @@ bool BvhBase::build(std::span<const GeometryView> geometry, const AccelOptions& 
     const TreeFacts f = tree_facts(tree_.nodes);
     const char* split = opt.split == BvhSplit::Sah ? "sah" : opt.split == BvhSplit::Sbvh ? "sbvh" : "midpoint";
     const char* test = opt.triangle == TriangleTest::Watertight ? "watertight" : "fast";
+    bool masked = false;
+    for (const GeometryView& g : geometry_) masked |= g.masked();
+    // geometry_ is never resized after this, and a move (adopt) keeps its array.
+    wide_.geometry = masked ? geometry_.data() : nullptr;
     info_.backend = std::string("custom(") + split + ", " + test + ", " + kernel + ", " +
-                    layout_name(compressed ? NodeLayout::Quantized : NodeLayout::Float) + ")";
+                    layout_name(compressed ? NodeLayout::Quantized : NodeLayout::Float) +
+                    (masked ? ", masked" : "") + ")";
     info_.primitives = refs.size();
     info_.nodes = tree_.nodes.size();
     info_.leaves = f.leaves;
@@ -115,11 +120,12 @@ NodeLayout resolve_layout(NodeLayout layout, uint64_t primitives) {
 std::unique_ptr<Accelerator> make_bvh(std::span<const GeometryView> geometry, const AccelOptions& options) {
     const Isa isa = resolve_isa(options.isa);
     uint64_t prims = 0;
-    for (const GeometryView& g : geometry) prims += g.num_prims;
+    bool masked = false;
+    for (const GeometryView& g : geometry) prims += g.num_prims, masked |= g.masked();
     const bool quantized = resolve_layout(options.nodes, prims) == NodeLayout::Quantized;
-    std::unique_ptr<bvh::BvhBase> b = bvh::make_kernel(isa, options.triangle, quantized);
+    std::unique_ptr<bvh::BvhBase> b = bvh::make_kernel(isa, options.triangle, quantized, masked);
     if (!b->build(geometry, options, isa_name(isa), quantized)) {
-        std::unique_ptr<bvh::BvhBase> f = bvh::make_kernel(isa, options.triangle, false);
+        std::unique_ptr<bvh::BvhBase> f = bvh::make_kernel(isa, options.triangle, false, masked);
         f->adopt(std::move(*b));
         return f;
     }

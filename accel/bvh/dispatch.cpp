@@ -54,13 +54,13 @@ std::vector<Isa> supported_isas() {
 
 namespace bvh {
 
-std::unique_ptr<BvhBase> make_kernel(Isa isa, TriangleTest test, bool quantized) {
+std::unique_ptr<BvhBase> make_kernel(Isa isa, TriangleTest test, bool quantized, bool masked) {
     isa = resolve_isa(isa);
     if (!cpu_has(isa)) throw AccelError(std::string("this CPU cannot run the ") + isa_name(isa) + " BVH kernel");
     switch (isa) {
-        case Isa::Avx2: return make_kernel_avx2(test, quantized);
-        case Isa::Avx512: return make_kernel_avx512(test, quantized);
-        default: return make_kernel_sse2(test, quantized);
+        case Isa::Avx2: return make_kernel_avx2(test, quantized, masked);
+        case Isa::Avx512: return make_kernel_avx512(test, quantized, masked);
+        default: return make_kernel_sse2(test, quantized, masked);
     }
 }
 

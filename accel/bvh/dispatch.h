@@ -10,11 +10,13 @@
 namespace accel::bvh {
 
 /// `quantized`: the kernel reads WideBvh::qnodes (QuantNode) instead of nodes.
-std::unique_ptr<BvhBase> make_kernel_sse2(TriangleTest test, bool quantized);
-std::unique_ptr<BvhBase> make_kernel_avx2(TriangleTest test, bool quantized);
-std::unique_ptr<BvhBase> make_kernel_avx512(TriangleTest test, bool quantized);
+/// `masked`: the kernel filters hits on masked geometry (GeometryView::filter); opaque
+/// scenes get one that has no filter code at all.
+std::unique_ptr<BvhBase> make_kernel_sse2(TriangleTest test, bool quantized, bool masked);
+std::unique_ptr<BvhBase> make_kernel_avx2(TriangleTest test, bool quantized, bool masked);
+std::unique_ptr<BvhBase> make_kernel_avx512(TriangleTest test, bool quantized, bool masked);
 
 /// The kernel for `isa` (Auto resolved first); throws AccelError if this CPU lacks it.
-std::unique_ptr<BvhBase> make_kernel(Isa isa, TriangleTest test, bool quantized);
+std::unique_ptr<BvhBase> make_kernel(Isa isa, TriangleTest test, bool quantized, bool masked = false);
 
 }  // namespace accel::bvh

@@ -502,6 +502,30 @@ PT_INLINE inline void prefetch_leaves(const Block* blocks, uint32_t hint) {
     for (; p < end; p += 64) _mm_prefetch(p, _MM_HINT_T0);
 }
 
+/// The hit filter of masked geometry (GeometryView::filter) for a hit in lane `lane` of
+/// block `b`: true when the lane's geometry is opaque or its filter keeps the hit. Only
+/// the Masked instantiations below call it, so a scene without masked geometry runs
+/// kernels that contain no trace of it. Written here rather than through lane_primitive
+/// (wide.h), whose out-of-line copy this file's flags could make the linker's pick.
+PT_INLINE inline bool keep_hit(const WideBvh& w, const Block& b, int lane, float u, float v, const Ray& ray) {
+    const uint32_t geom = w.lane_geom.empty() ? w.one_geom : w.lane_geom[size_t(&b - w.blocks.data()) * 4 + size_t(lane)];
+    const GeometryView& g = w.geometry[geom];
+    return !g.filter || g.filter(g.filter_user, geom, b.prim[lane], u, v, ray);
+}
+
+/// Whether some hit lane of a leaf test (lanes 4k..4k+3 from block b[k]) survives the
+/// filter: the any-hit query's test on masked scenes.
+template <class L>
+PT_INLINE inline bool any_kept(const L& lanes, unsigned hit, const Block* b, const WideBvh& w, const Ray& ray) {
+    alignas(64) float tt[16], uu[16], vv[16];
+    lanes.store(tt, uu, vv);
+    for (; hit; hit &= hit - 1) {
+        const int l = __builtin_ctz(hit);
+        if (keep_hit(w, b[l >> 2], l & 3, uu[l], vv[l], ray)) return true;
+    }
+    return false;
+}
+
 /// The closest hit traverse found: its distance, barycentrics, and the block and lane
 /// of its primitive (BvhBase::finish takes the ids and the normal from there, not from
 /// the slot map or the scene's arrays); at.block is null when nothing was hit. Returned
@@ -524,7 +548,13 @@ struct Closest {
 /// dependent chain of six slab distances and a branch, before any SIMD work could
 /// start) measured 10-25 % of a shadow or diffuse ray on the course meshes, whose rays
 /// all start inside the scene box (accel/DECISIONS.md, "no scalar root test").
-template <class P, TriangleTest Test, bool Count, bool HasSpheres>
+///
+/// Masked (scenes with some GeometryView::filter, WideBvh::geometry set): a lane that
+/// would become the closest hit is kept only if keep_hit says so; a dropped one leaves
+/// the segment as it was, so traversal goes on behind it. The views come through w, not
+/// as an argument, so that the opaque instantiations keep the signature, and so the
+/// instructions, they had before filters existed.
+template <class P, TriangleTest Test, bool Count, bool HasSpheres, bool Masked = false>
 Closest traverse(const WideBvh& w, const Ray& ray_in, TraceStats& stats) {
     const typename P::Node* nodes = node_array<typename P::Node>(w);
     if (!nodes) return {};
@@ -589,7 +619,8 @@ Closest traverse(const WideBvh& w, const Ray& ray_in, TraceStats& stats) {
                         const int l = __builtin_ctz(hit);
                         hit &= hit - 1;
                         const Block* hb = b + (l >> 2);
-                        if (tt[l] <= t) t = tt[l], u = uu[l], v = vv[l], at = {hb, l & 3};
+                        if (tt[l] <= t && (!Masked || keep_hit(w, *hb, l & 3, uu[l], vv[l], ray_in)))
+                            t = tt[l], u = uu[l], v = vv[l], at = {hb, l & 3};
                     }
                     b += two;
                     continue;
@@ -603,7 +634,8 @@ Closest traverse(const WideBvh& w, const Ray& ray_in, TraceStats& stats) {
                 do {
                     const int l = __builtin_ctz(hit);
                     hit &= hit - 1;
-                    if (tt[l] <= t) t = tt[l], u = uu[l], v = vv[l], at = {b, l};
+                    if (tt[l] <= t && (!Masked || keep_hit(w, *b, l, uu[l], vv[l], ray_in)))
+                        t = tt[l], u = uu[l], v = vv[l], at = {b, l};
                 } while (hit);
             }
             // Once per leaf, not per hit lane or per node: the node test's and the pop's
@@ -685,7 +717,8 @@ Closest traverse(const WideBvh& w, const Ray& ray_in, TraceStats& stats) {
 /// CBbunny, though 10-13 % faster on cow and bunny (accel/DECISIONS.md, "nearest child first"). Lane
 /// order only where two children are hit, or only in bottom nodes, lost 1-10 % on
 /// every mesh (same decision). Counting as in traverse.
-template <class P, TriangleTest Test, bool Count, bool HasSpheres>
+/// Masked: as in traverse, a hit lane occludes only if keep_hit keeps it.
+template <class P, TriangleTest Test, bool Count, bool HasSpheres, bool Masked = false>
 bool occlude(const WideBvh& w, const Ray& ray_in, TraceStats& stats) {
     const typename P::Node* nodes = node_array<typename P::Node>(w);
     if (!nodes) return false;
@@ -730,7 +763,16 @@ bool occlude(const WideBvh& w, const Ray& ray_in, TraceStats& stats) {
                         if constexpr (Count)
                             tests += unsigned(__builtin_popcount(filled(b[1])) + __builtin_popcount(filled(b[2]))) +
                                      (four ? unsigned(__builtin_popcount(filled(b3))) : 0u);
-                        if (tri16_mt(b[0], b[1], b[2], b3, lr, t).mask & (four ? 0xFFFFu : 0x0FFFu)) return finish(true);
+                        // Masked or not, two statements: the opaque one written as it
+                        // was before filters, so it compiles to the same instructions.
+                        if constexpr (!Masked) {
+                            if (tri16_mt(b[0], b[1], b[2], b3, lr, t).mask & (four ? 0xFFFFu : 0x0FFFu))
+                                return finish(true);
+                        } else {
+                            const auto lanes = tri16_mt(b[0], b[1], b[2], b3, lr, t);
+                            const unsigned hit = lanes.mask & (four ? 0xFFFFu : 0x0FFFu);
+                            if (hit && any_kept(lanes, hit, b, w, ray_in)) return finish(true);
+                        }
                         b += 2 + four;
                         continue;
                     }
@@ -738,12 +780,23 @@ bool occlude(const WideBvh& w, const Ray& ray_in, TraceStats& stats) {
                     const bool two = end - b >= 2;
                     const Block& b1 = two ? b[1] : b[0];
                     if constexpr (Count) tests += two ? unsigned(__builtin_popcount(filled(b1))) : 0u;
-                    if (tri8<Test>(b[0], b1, lr, t).mask & (two ? 0xFFu : 0x0Fu)) return finish(true);
+                    if constexpr (!Masked) {  // as above
+                        if (tri8<Test>(b[0], b1, lr, t).mask & (two ? 0xFFu : 0x0Fu)) return finish(true);
+                    } else {
+                        const auto lanes = tri8<Test>(b[0], b1, lr, t);
+                        const unsigned hit = lanes.mask & (two ? 0xFFu : 0x0Fu);
+                        if (hit && any_kept(lanes, hit, b, w, ray_in)) return finish(true);
+                    }
                     b += two;
                     continue;
                 }
 #endif
-                if (tri4<Test>(*b, lr, t).mask) return finish(true);
+                if constexpr (!Masked) {  // as above
+                    if (tri4<Test>(*b, lr, t).mask) return finish(true);
+                } else {
+                    const auto lanes = tri4<Test>(*b, lr, t);
+                    if (lanes.mask && any_kept(lanes, lanes.mask, b, w, ray_in)) return finish(true);
+                }
             }
         } else {
             prefetch_leaves(blocks, count);
@@ -778,6 +831,9 @@ bool occlude(const WideBvh& w, const Ray& ray_in, TraceStats& stats) {
 
 /// The accelerator for one ISA and triangle test; intersect/occluded are the only
 /// virtual calls. The counting instantiation runs only when the caller asks for counts.
+/// A scene without masked geometry gets this class, whose traversals are the unfiltered
+/// instantiations (Masked = false: no filter code at all); one with masked geometry gets
+/// MaskedKernel (below), chosen once when the accelerator is made (make_bvh).
 template <class P, TriangleTest Test>
 class Kernel final : public BvhBase {
 public:
@@ -801,8 +857,33 @@ public:
     }
 };
 
+/// Kernel for scenes with masked geometry: the Masked traversals, which call the filter
+/// of a hit lane's geometry when it has one. Spheres are handled whether or not the
+/// scene has any (one check per leaf), to halve the instantiations.
+template <class P, TriangleTest Test>
+class MaskedKernel final : public BvhBase {
+public:
+    bool intersect(const Ray& ray, Hit& hit, TraceStats& stats) const override {
+        ++stats.rays;
+        const Closest c = stats.counting ? traverse<P, Test, true, true, true>(wide_, ray, stats)
+                                         : traverse<P, Test, false, true, true>(wide_, ray, stats);
+        if (!c.at.block) return false;
+        finish(c.at, ray, c.t, c.u, c.v, hit);
+        return true;
+    }
+    bool occluded(const Ray& ray, TraceStats& stats) const override {
+        ++stats.shadow_rays;
+        return stats.counting ? occlude<P, Test, true, true, true>(wide_, ray, stats)
+                              : occlude<P, Test, false, true, true>(wide_, ray, stats);
+    }
+};
+
 template <class P>
-std::unique_ptr<BvhBase> make_kernel(TriangleTest test) {
+std::unique_ptr<BvhBase> make_kernel(TriangleTest test, bool masked) {
+    if (masked) {
+        if (test == TriangleTest::Watertight) return std::make_unique<MaskedKernel<P, TriangleTest::Watertight>>();
+        return std::make_unique<MaskedKernel<P, TriangleTest::Fast>>();
+    }
     if (test == TriangleTest::Watertight) return std::make_unique<Kernel<P, TriangleTest::Watertight>>();
     return std::make_unique<Kernel<P, TriangleTest::Fast>>();
 }

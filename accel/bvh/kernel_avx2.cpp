@@ -16,7 +16,7 @@ namespace {
 }  // namespace accel::bvh::avx2
 
 namespace accel::bvh {
-std::unique_ptr<BvhBase> make_kernel_avx2(TriangleTest test, bool quantized) {
-    return quantized ? avx2::make_kernel<avx2::QNode8>(test) : avx2::make_kernel<avx2::Node8>(test);
+std::unique_ptr<BvhBase> make_kernel_avx2(TriangleTest test, bool quantized, bool masked) {
+    return quantized ? avx2::make_kernel<avx2::QNode8>(test, masked) : avx2::make_kernel<avx2::Node8>(test, masked);
 }
 }  // namespace accel::bvh

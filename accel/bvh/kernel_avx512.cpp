@@ -18,7 +18,7 @@ namespace {
 }  // namespace accel::bvh::avx512
 
 namespace accel::bvh {
-std::unique_ptr<BvhBase> make_kernel_avx512(TriangleTest test, bool quantized) {
-    return quantized ? avx512::make_kernel<avx512::QNode8>(test) : avx512::make_kernel<avx512::Node8>(test);
+std::unique_ptr<BvhBase> make_kernel_avx512(TriangleTest test, bool quantized, bool masked) {
+    return quantized ? avx512::make_kernel<avx512::QNode8>(test, masked) : avx512::make_kernel<avx512::Node8>(test, masked);
 }
 }  // namespace accel::bvh

@@ -80,7 +80,7 @@ struct Sse2Q : Sse2 {
 }  // namespace accel::bvh::sse2
 
 namespace accel::bvh {
-std::unique_ptr<BvhBase> make_kernel_sse2(TriangleTest test, bool quantized) {
-    return quantized ? sse2::make_kernel<sse2::Sse2Q>(test) : sse2::make_kernel<sse2::Sse2>(test);
+std::unique_ptr<BvhBase> make_kernel_sse2(TriangleTest test, bool quantized, bool masked) {
+    return quantized ? sse2::make_kernel<sse2::Sse2Q>(test, masked) : sse2::make_kernel<sse2::Sse2>(test, masked);
 }
 }  // namespace accel::bvh

@@ -133,6 +133,11 @@ struct WideBvh {
     /// Interior lanes carry their bottom children's leaf-block hints (WideNode::count).
     bool leaf_hints = false;
     float root[6] = {};               ///< scene box (bounds(); traversal starts at nodes[0])
+    /// The geometry views, indexed by geometry id, for the hit filters of masked geometry
+    /// (kernel.h, keep_hit): BvhBase::geometry_'s array, set by BvhBase::build only when
+    /// some view is masked; null otherwise. Last, so the fields traversal reads keep
+    /// their offsets.
+    const GeometryView* geometry = nullptr;
 };
 
 /// The primitive in lane `lane` of block `b` (one of w.blocks), as (geometry, index).

@@ -129,6 +129,28 @@ void user_bounds(const RTCBoundsFunctionArguments* args) {
     o->upper_x = b.hi.x; o->upper_y = b.hi.y; o->upper_z = b.hi.z;
 }
 
+/// The renderer's test of a candidate hit on masked geometry (GeometryView::filter).
+inline bool keep_hit(const UserGeom& g, uint32_t prim, float u, float v, const Ray& ray) {
+    return !g.view->masked() || g.view->filter(g.view->filter_user, g.geom_id, prim, u, v, ray);
+}
+
+/// Intersection and occlusion filter of masked triangle geometry (Embree 3 API,
+/// rtcSetGeometryIntersectFilterFunction / rtcSetGeometryOccludedFilterFunction): set
+/// on masked geometry only, so Embree calls nothing for the opaque rest. Embree calls it
+/// for each candidate before committing it; clearing valid[i] makes it go on as if the
+/// triangle were not there. primID is Embree's index, which names the kept copy's
+/// triangles where some were dropped (UserGeom::prims maps it back).
+void filter_triangles(const RTCFilterFunctionNArguments* args) {
+    const auto& g = *static_cast<const UserGeom*>(args->geometryUserPtr);
+    const auto* ctx = reinterpret_cast<const CallContext*>(args->context);
+    for (unsigned i = 0; i < args->N; ++i) {
+        if (args->valid[i] != -1) continue;
+        const uint32_t prim = user_prim(g, RTCHitN_primID(args->hit, args->N, i));
+        if (!keep_hit(g, prim, RTCHitN_u(args->hit, args->N, i), RTCHitN_v(args->hit, args->N, i), ctx->rc->ray))
+            args->valid[i] = 0;
+    }
+}
+
 // We only ever trace single rays (rtcIntersect1 / rtcOccluded1), so N == 1 and the
 // RTCRayHitN / RTCRayN pointers are an RTCRayHit / RTCRay.
 template <TriangleTest Test>
@@ -142,6 +164,7 @@ void user_intersect(const RTCIntersectFunctionNArguments* args) {
     Hit h;
     h.t = rh->ray.tfar;
     if (!intersect_primitive<Test>(*g.view, g.geom_id, prim, *ctx->rc, h)) return;
+    if (!keep_hit(g, prim, h.u, h.v, ctx->rc->ray)) return;
     rh->ray.tfar = h.t;
     rh->hit.u = h.u;
     rh->hit.v = h.v;
@@ -162,7 +185,8 @@ void user_occluded(const RTCOccludedFunctionNArguments* args) {
     ++ctx->tests;
     Hit h;
     h.t = ray->tfar;
-    if (intersect_primitive<Test>(*g.view, g.geom_id, user_prim(g, args->primID), *ctx->rc, h))
+    const uint32_t prim = user_prim(g, args->primID);
+    if (intersect_primitive<Test>(*g.view, g.geom_id, prim, *ctx->rc, h) && keep_hit(g, prim, h.u, h.v, ctx->rc->ray))
         ray->tfar = -std::numeric_limits<float>::infinity();
 }
 
@@ -202,6 +226,12 @@ public:
         }
         rtcSetDeviceErrorFunction(device_, on_error, state_.get());
         rtcSetDeviceMemoryMonitorFunction(device_, on_memory, state_.get());
+        // An Embree built without filter functions would ignore them and draw masked
+        // geometry opaque: refused instead.
+        for (const GeometryView& g : geometry_)
+            if (g.masked() && !rtcGetDeviceProperty(device_, RTC_DEVICE_PROPERTY_FILTER_FUNCTION_SUPPORTED))
+                throw AccelError("this Embree was built without filter functions (EMBREE_FILTER_FUNCTION), "
+                                 "which masked geometry needs; use the custom or naive backend");
 
         scene_ = scene_holder_.h = rtcNewScene(device_);
         check("rtcNewScene");
@@ -382,6 +412,15 @@ private:
                 ix.insert(ix.end(), g.indices + 3 * size_t(p), g.indices + 3 * size_t(p) + 3);
             rtcSetSharedGeometryBuffer(geom, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3, ix.data(),
                                        0, 3 * sizeof(uint32_t), map.size());
+        }
+        if (g.masked()) {
+            UserGeom& u = user_[gi];
+            u.view = &g;
+            u.geom_id = gi;
+            u.prims = map.empty() ? nullptr : map.data();
+            rtcSetGeometryUserData(geom, &u);
+            rtcSetGeometryIntersectFilterFunction(geom, filter_triangles);
+            rtcSetGeometryOccludedFilterFunction(geom, filter_triangles);
         }
         attach(geom, gi, "triangle geometry");
     }

@@ -31,8 +31,18 @@ public:
         Hit h;
         h.t = ray.t_max;
         bool found = false;
-        for (const PrimRef& p : prims_)
-            found |= intersect_primitive<Test>(geometry_[p.geom], p.geom, p.prim, rc, h);
+        for (const PrimRef& p : prims_) {
+            const GeometryView& g = geometry_[p.geom];
+            if (!g.masked()) {
+                found |= intersect_primitive<Test>(g, p.geom, p.prim, rc, h);
+                continue;
+            }
+            // A candidate that would become the closest hit, kept only if the filter says so.
+            Hit c = h;
+            if (intersect_primitive<Test>(g, p.geom, p.prim, rc, c) &&
+                g.filter(g.filter_user, p.geom, p.prim, c.u, c.v, ray))
+                h = c, found = true;
+        }
         if (!found) return false;
         finish_hit(geometry_, ray, h);
         hit = h;
@@ -46,7 +56,11 @@ public:
         h.t = ray.t_max;
         for (const PrimRef& p : prims_) {
             ++stats.prim_tests;
-            if (intersect_primitive<Test>(geometry_[p.geom], p.geom, p.prim, rc, h)) return true;
+            const GeometryView& g = geometry_[p.geom];
+            Hit c = h;
+            if (intersect_primitive<Test>(g, p.geom, p.prim, rc, c) &&
+                (!g.masked() || g.filter(g.filter_user, p.geom, p.prim, c.u, c.v, ray)))
+                return true;
         }
         return false;
     }

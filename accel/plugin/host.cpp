@@ -329,6 +329,14 @@ std::unique_ptr<Accelerator> make_plugin(const std::string& spec, std::span<cons
     const std::string path = spec.substr(0, colon);
     const std::string options = colon == std::string::npos ? "" : spec.substr(colon + 1);
     if (path.empty()) throw AccelError("plugin: no path given (expected plugin:PATH[:OPTIONS])");
+    // ABI version 1 has no hit filter, and a plugin that ignored one would draw cut-out
+    // leaves as opaque cards without a word: refused, so the user picks another backend.
+    for (size_t i = 0; i < geometry.size(); ++i)
+        if (geometry[i].masked())
+            refuse(path, "geometry " + std::to_string(i) +
+                             " is masked (an alpha-tested or blended material), which the plugin ABI cannot "
+                             "pass (no hit filter in version " + std::to_string(ACCEL_PLUGIN_ABI_VERSION) +
+                             "); use the custom, embree or naive backend");
     std::error_code ec;
     // A bare name would make dlopen search the library path; a plugin is named by its file.
     if (!std::filesystem::exists(path, ec)) refuse(path, "no such file");

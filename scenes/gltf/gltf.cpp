@@ -914,8 +914,20 @@ uint32_t Loader::material_index(int mi, const std::string& user) {
         } else {
             read_pbr(g, mdesc, out, uv_set);
         }
-        if (g.alphaMode != "OPAQUE" && !g.alphaMode.empty())
-            ignored_material_features_.insert("alphaMode " + g.alphaMode);
+        // glTF 2.0 spec 3.9.4 (Alpha Coverage): alpha is baseColorFactor's times the base
+        // colour texture's; alphaCutoff counts for MASK alone.
+        if (g.alphaMode == "MASK") {
+            if (!std::isfinite(g.alphaCutoff) || g.alphaCutoff < 0)
+                fail(mdesc + ": alphaCutoff must be a finite number >= 0");
+            out.alpha_mode = AlphaMode::Mask;
+            out.alpha_cutoff = float(g.alphaCutoff);
+        } else if (g.alphaMode == "BLEND") {
+            out.alpha_mode = AlphaMode::Blend;
+        } else if (g.alphaMode != "OPAQUE" && !g.alphaMode.empty()) {
+            fail(mdesc + ": alphaMode \"" + g.alphaMode + "\" is not OPAQUE, MASK or BLEND");
+        }
+        if (!std::isfinite(pbr.baseColorFactor[3])) fail(mdesc + ": baseColorFactor is not finite");
+        out.base_alpha = std::clamp(float(pbr.baseColorFactor[3]), 0.0f, 1.0f);
         for (const auto& [ext, v] : g.extensions)
             if (ext != "KHR_materials_emissive_strength" && ext != "KHR_materials_transmission" &&
                 ext != "KHR_materials_ior" && ext != "KHR_materials_unlit")
