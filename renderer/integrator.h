@@ -7,6 +7,7 @@
 
 #include "accel/accelerator.h"
 #include "renderer/rng.h"
+#include "renderer/sampler.h"
 #include "renderer/scene_geometry.h"
 #include "renderer/spawn.h"
 #include "renderer/texture.h"
@@ -23,12 +24,23 @@ struct AovSample {
     float depth = 0.0f;  ///< distance to the first hit (0 on a miss)
 };
 
-/// What one camera sample may use: the per-thread statistics and the pixel's stream.
+/// What one camera sample may use: the per-thread statistics and its random numbers,
+/// drawn by dimension (the layout is in renderer/sampler.h, dims).
 struct SampleContext {
     const accel::Accelerator& accel;
     accel::TraceStats& stats;
     Rng& rng;
     AovSample aov;
+    /// The sample's low-discrepancy numbers; null for the independent sampler, whose
+    /// every dimension is the next number of rng, in call order.
+    const PixelSample* sampler = nullptr;
+
+    float get1d(uint32_t dim) { return sampler ? sampler->get1d(dim) : rng.next_float(); }
+    Vec2f get2d(uint32_t dim) {
+        if (sampler) return sampler->get2d(dim);
+        const float u0 = rng.next_float();
+        return {u0, rng.next_float()};
+    }
 };
 
 struct IntegratorSettings {

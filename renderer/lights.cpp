@@ -247,7 +247,7 @@ SphericalTriangle LightSet::near_triangle(const Tri& t, const Vec3f& p) {
     return SphericalTriangle(p, t.v0, t.v0 + t.e1, t.v0 + t.e2);
 }
 
-bool LightSet::sample(size_t i, const Vec3f& p, const Vec3f& n, Rng& rng, LightSample& out) const {
+bool LightSet::sample(size_t i, const Vec3f& p, const Vec3f& n, float choice, Vec2f u2, LightSample& out) const {
     const Light& l = lights_[i];
     out.delta = false;
     out.target_error = Vec3f(0.0f);
@@ -277,18 +277,18 @@ bool LightSet::sample(size_t i, const Vec3f& p, const Vec3f& n, Rng& rng, LightS
     };
     switch (l.kind) {
         case Kind::Rect: {
-            const Vec3f du = l.edge_u * (rng.next_float() - 0.5f), dv = l.edge_v * (rng.next_float() - 0.5f);
+            const Vec3f du = l.edge_u * (u2.x - 0.5f), dv = l.edge_v * (u2.y - 0.5f);
             const Vec3f q = l.position + du + dv;
             const Vec3f err = (accel::vabs(l.position) + accel::vabs(du) + accel::vabs(dv)) * gamma_bound(5);
             return finite_area(q, err, l.normal, 1.0f / l.area, false);
         }
         case Kind::Mesh: {
-            const float u = rng.next_float();
+            const float u = choice;
             const float* begin = cdf_.data() + l.first_tri;
             const size_t k = std::min<size_t>(size_t(std::upper_bound(begin, begin + l.num_tris, u) - begin),
                                               l.num_tris - 1);
             const Tri& t = tris_[l.first_tri + k];
-            float a = rng.next_float(), b = rng.next_float();
+            float a = u2.x, b = u2.y;
             // Near triangles by solid angle (see solid_angle_sampled), the rest by area.
             float solid_pdf = 0;
             const SphericalTriangle st = near_triangle(t, p);
@@ -318,7 +318,7 @@ bool LightSet::sample(size_t i, const Vec3f& p, const Vec3f& n, Rng& rng, LightS
             return true;
         }
         case Kind::Sphere: {
-            const Vec3f nl = uniform_sphere(rng.next_float(), rng.next_float());
+            const Vec3f nl = uniform_sphere(u2.x, u2.y);
             // Two-sided like meshes: a camera inside an emissive sphere sees it too.
             const Vec3f r = nl * l.radius;
             // |nl| is 1 only to a few ulps (sqrt, sin, cos): gamma(9) on the radius.
@@ -358,8 +358,8 @@ bool LightSet::sample(size_t i, const Vec3f& p, const Vec3f& n, Rng& rng, LightS
         case Kind::Environment: {
             out.distance = accel::kInfinity;
             if (!env_map_.empty())
-                return env_map_.sample(rng.next_float(), rng.next_float(), out.wi, out.pdf, out.radiance);
-            const Vec3f local = cosine_hemisphere(rng.next_float(), rng.next_float());
+                return env_map_.sample(u2.x, u2.y, out.wi, out.pdf, out.radiance);
+            const Vec3f local = cosine_hemisphere(u2.x, u2.y);
             out.wi = to_world(local, n);
             out.distance = accel::kInfinity;
             out.radiance = l.radiance;

@@ -15,6 +15,7 @@
 
 namespace renderer {
 
+using accel::Vec2f;
 using accel::Vec3f;
 struct Interaction;
 
@@ -82,8 +83,20 @@ public:
     }
 
     /// Samples light `i` as seen from point `p` with unit normal `n` (the environment is
-    /// sampled by a cosine lobe around n). Returns false when the sample carries nothing.
-    bool sample(size_t i, const Vec3f& p, const Vec3f& n, Rng& rng, LightSample& out) const;
+    /// sampled by a cosine lobe around n), from `choice` (which triangle of an emissive
+    /// mesh) and `u` (the point). Returns false when the sample carries nothing.
+    bool sample(size_t i, const Vec3f& p, const Vec3f& n, float choice, Vec2f u, LightSample& out) const;
+    /// The same from a stream: a choice number only where uses_choice(i), then the point.
+    bool sample(size_t i, const Vec3f& p, const Vec3f& n, Rng& rng, LightSample& out) const {
+        if (!uses_point(i)) return sample(i, p, n, 0.0f, Vec2f{}, out);
+        const float c = uses_choice(i) ? rng.next_float() : 0.0f;
+        const float u0 = rng.next_float();
+        return sample(i, p, n, c, Vec2f{u0, rng.next_float()}, out);
+    }
+    /// Does sampling light i read its choice number (an emissive mesh picks a triangle)?
+    bool uses_choice(size_t i) const { return lights_[i].kind == Kind::Mesh; }
+    /// Does sampling light i read its point numbers (delta lights read none)?
+    bool uses_point(size_t i) const { return !is_delta(i); }
 
     /// The emitter-visibility policy, consulted wherever an integrator adds emission
     /// found by a ray (camera rays, -H direct rays): the radiance the surface at `it`

@@ -131,6 +131,10 @@ RenderResult render(const Camera& camera, const Integrator& integrator,
                                             : s.adaptive_batch > 0 ? s.adaptive_batch : 8);
     const int num_passes = (s.spp + pass_spp - 1) / pass_spp;
 
+    // Built before the clock starts: pmj02 draws its tables here (0.07 s).
+    const Sampler sampler(s.sampler, s.seed, s.spp, s.width, s.height);
+    const bool independent = s.sampler == SamplerKind::Independent;
+
     stage("rendering");
     tbb::enumerable_thread_specific<accel::TraceStats> thread_stats;
     Progress progress(s.progress, num_tiles * size_t(num_passes));
@@ -147,23 +151,18 @@ RenderResult render(const Camera& camera, const Integrator& integrator,
         const accel::TraceStats before = stats;
         while (q.taken < target) {
             Rng rng(s.seed, pixel, q.taken);
-            // One sample sits at the pixel centre (as the course does); more are jittered
-            // uniformly inside the pixel.
-            float jx = 0.5f, jy = 0.5f;
-            if (s.spp > 1) {
-                jx = rng.next_float();
-                jy = rng.next_float();
-            }
+            const PixelSample ld(sampler, x, y, s.width, q.taken);
+            SampleContext ctx{accel, stats, rng, {}, independent ? nullptr : &ld};
+            // One sample sits at the pixel centre (as the course does); more are spread
+            // inside the pixel.
+            Vec2f j{0.5f, 0.5f};
+            if (s.spp > 1) j = ctx.get2d(dims::kPixel);
             // Lens samples are drawn only for a thin lens, so pinhole images keep their
             // random streams.
-            float lu = 0.5f, lv = 0.5f;
-            if (camera.lens_radius() > 0) {
-                lu = rng.next_float();
-                lv = rng.next_float();
-            }
-            const accel::Ray ray = camera.generate_ray((float(x) + jx) / float(s.width),
-                                                       (float(y) + jy) / float(s.height), lu, lv);
-            SampleContext ctx{accel, stats, rng, {}};
+            Vec2f lens{0.5f, 0.5f};
+            if (camera.lens_radius() > 0) lens = ctx.get2d(dims::kLens);
+            const accel::Ray ray = camera.generate_ray((float(x) + j.x) / float(s.width),
+                                                       (float(y) + j.y) / float(s.height), lens.x, lens.y);
             const Vec3f L = integrator.li(ray, ctx);
             ++q.taken;
             if (!accel::is_finite(L)) {

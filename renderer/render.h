@@ -1,4 +1,4 @@
-// The image loop: samples in passes, tiles over TBB, per-sample random streams, per-pixel
+// The image loop: samples in passes, tiles over TBB, per-sample random numbers, per-pixel
 // sums, progress on stderr, clean stop on Ctrl-C. Each pixel's sums are accumulated in
 // double in sample order, so the image does not depend on the schedule: any split into
 // tiles, passes, threads, ranks or a resumed checkpoint gives the same bits.
@@ -14,6 +14,7 @@
 #include "renderer/camera.h"
 #include "renderer/image.h"
 #include "renderer/integrator.h"
+#include "renderer/sampler.h"
 
 namespace renderer {
 
@@ -70,6 +71,8 @@ struct RenderSettings {
     int spp = 1;            ///< -s: samples per pixel (the cap under adaptive sampling)
     int threads = 0;        ///< -t: 0 = all cores
     uint64_t seed = 0;
+    /// --sampler: where each sample's numbers come from (renderer/sampler.h).
+    SamplerKind sampler = SamplerKind::Independent;
     std::optional<Cell> cell;
     bool progress = true;   ///< print progress lines on stderr
     int tile = 32;

@@ -58,6 +58,7 @@ struct Options {
     std::string nodes = "auto", lights_mode, offset = "error-bound", strategy = "mis", texture_filter = "trilinear";
     std::string output;
     std::string rr = "throughput";  ///< --rr: "throughput" or a probability in (0, 1]
+    std::string sampler = "independent";
     std::vector<int> resolution, cell;
     std::vector<float> adaptive;
     int accumulate = 1;
@@ -163,6 +164,13 @@ void add_scene_options(CLI::App& app, Options& o) {
                    "continuation probability with 0 < P <= 1 (the CS184 course's roulette, which "
                    "uses 0.65; 1 = no roulette)")
         ->type_name("throughput|P");
+    app.add_option("--sampler", o.sampler,
+                   "Where each sample's random numbers come from: independent (default; the per-sample "
+                   "PCG32 streams of earlier versions) | stratified (jittered strata per dimension) | "
+                   "sobol (Owen-scrambled Sobol, Burley 2020) | zsobol (the same along a Morton curve "
+                   "over pixels, blue-noise error, Ahmed and Wonka 2020) | pmj02 (progressive "
+                   "multi-jittered (0,2), Christensen et al. 2018). Images stay identical for any -t")
+        ->check(CLI::IsMember({"independent", "stratified", "sobol", "zsobol", "pmj02"}));
     app.add_option("--offset", o.offset,
                    "How secondary rays leave surfaces: error-bound (default; offset by the hit "
                    "point's floating-point error bound, pbrt-v4 6.8, robust at any scene scale) | "
@@ -236,6 +244,7 @@ void finish_options(Options& o, const dist::World& world) {
             fail(fmt::format("--rr {}: expected throughput or a probability P with 0 < P <= 1", o.rr));
         o.is.rr_continue = p;
     }
+    rs.sampler = renderer::parse_sampler(o.sampler);
     o.is.accumulate = o.accumulate == 1;
     o.is.strategy = o.strategy == "light"  ? renderer::IntegratorSettings::Strategy::Light
                     : o.strategy == "bsdf" ? renderer::IntegratorSettings::Strategy::Bsdf
@@ -278,6 +287,11 @@ std::string fingerprint(const CLI::App& app, const std::string& scene_path, int 
     std::ifstream in(scene_path, std::ios::binary);
     uint64_t h = 1469598103934665603ull;  // FNV-1a of the scene file
     for (char c; in.get(c);) h = (h ^ uint8_t(c)) * 1099511628211ull;
+    // Stratified, zsobol and pmj02 lay their samples out for the sample count, so a
+    // checkpoint of theirs continues only to the same -s.
+    const std::string sampler = app.get_option("--sampler")->as<std::string>();
+    if (sampler == "stratified" || sampler == "zsobol" || sampler == "pmj02")
+        out += fmt::format("sampler-spp={};", spp);
     return out + fmt::format("scene-fnv1a={:016x};jitter={}", h, spp > 1);
 }
 

@@ -32,17 +32,29 @@ bool is_unlit(const scenes::Scene& scene, const Interaction& it) {
 bool is_black(const Vec3f& v) { return !(v.x > 0 || v.y > 0 || v.z > 0); }
 
 /// The course's direct-light estimate: every light, -l samples each (one for delta
-/// lights), averaged per light. `contribution(i, n, sample)` weighs one sample.
+/// lights), averaged per light. `contribution(i, n, sample)` weighs one sample. The first
+/// sample that reads numbers takes the vertex's light dimensions (renderer/sampler.h);
+/// any further ones (more lights, -l > 1) are hashed independently.
 template <class F>
-Vec3f sum_light_samples(const LightSet& lights, int light_samples, const Interaction& it, Rng& rng,
-                        F&& contribution) {
+Vec3f sum_light_samples(const LightSet& lights, int light_samples, const Interaction& it, int bounce,
+                        SampleContext& ctx, F&& contribution) {
     Vec3f sum(0.0f);
+    uint32_t drawn = 0;
+    const uint32_t base = dims::bounce(bounce);
     for (size_t i = 0; i < lights.size(); ++i) {
         const int n = lights.is_delta(i) ? 1 : light_samples;
         Vec3f acc(0.0f);
         for (int k = 0; k < n; ++k) {
+            float choice = 0.0f;
+            Vec2f u;
+            if (lights.uses_point(i)) {
+                const uint32_t d = drawn == 0 ? base : dims::extra_light(bounce, drawn);
+                if (lights.uses_choice(i)) choice = ctx.get1d(d + dims::kLightChoice);
+                u = ctx.get2d(d + dims::kLightPoint);
+                ++drawn;
+            }
             LightSample ls;
-            if (lights.sample(i, it.p, it.ns, rng, ls)) acc += contribution(i, n, ls);
+            if (lights.sample(i, it.p, it.ns, choice, u, ls)) acc += contribution(i, n, ls);
         }
         sum += acc / float(n);
     }
@@ -142,23 +154,26 @@ Vec3f PathIntegrator::li(const accel::Ray& camera_ray, SampleContext& ctx) const
         if (accel::dot(it.ng, wo) < 0) it.ng = -it.ng;
         if (accel::dot(it.ns, it.ng) < 0) it.ns = -it.ns;
 
-        if (counts(bounce)) L += beta * direct(it, wo, albedo, ctx);
+        if (counts(bounce)) L += beta * direct(it, bounce, albedo, ctx);
         if (bounce == s_.max_depth) break;
         // The course's fixed-probability roulette from the second bounce on: unbiased,
         // since survivors are reweighted by 1/p.
+        const uint32_t d = dims::bounce(bounce);
         if (!s_.throughput_roulette() && bounce >= 2 && s_.rr_continue < 1.0f) {
-            if (ctx.rng.next_float() >= s_.rr_continue) break;
+            if (ctx.get1d(d + dims::kRoulette) >= s_.rr_continue) break;
             beta = beta / s_.rr_continue;
         }
         // Cosine-weighted bounce: f * cos(wi) / pdf(wi) = (albedo/pi) * cos / (cos/pi) =
         // albedo. The cosine is that of the sampled INCOMING direction wi.
-        const Vec3f local = cosine_hemisphere(ctx.rng.next_float(), ctx.rng.next_float());
+        const Vec2f u = ctx.get2d(d + dims::kBsdfDir);
+        const Vec3f local = cosine_hemisphere(u.x, u.y);
         const Vec3f wi = to_world(local, it.ns);
         if (!(local.z > 0) || accel::dot(wi, it.ng) <= 0) break;
         beta *= albedo;
         // Throughput roulette weighs the throughput after this vertex's albedo, before the
         // ray is traced, so a terminated path costs no trace.
-        if (s_.throughput_roulette() && bounce >= 2 && !throughput_roulette(beta, eta_scale, ctx.rng.next_float()))
+        if (s_.throughput_roulette() && bounce >= 2 &&
+            !throughput_roulette(beta, eta_scale, ctx.get1d(d + dims::kRoulette)))
             break;
         const accel::Ray ray = spawn_ray(it.p, it.p_error, it.ng, wi, scale_, s_.offset);
         if (!ctx.accel.intersect(ray, hit, ctx.stats)) break;  // environment: counted by direct()
@@ -191,18 +206,21 @@ bool PathIntegrator::scatter(const scenes::Material& m, int bounce, Interaction&
     // lose the panel's light: there --strategy=bsdf falls back to MIS.
     const bool course = lights_.model() == LightModel::Course;
     const Strategy strategy = course && s_.strategy == Strategy::Bsdf ? Strategy::Mis : s_.strategy;
-    if (!delta && counts(bounce) && strategy != Strategy::Bsdf) L += beta * direct_bsdf(it, wo_l, t, bt, b, ctx);
+    if (!delta && counts(bounce) && strategy != Strategy::Bsdf)
+        L += beta * direct_bsdf(it, bounce, wo_l, t, bt, b, ctx);
     // At the last vertex the BSDF sample still runs when its emission counts: it is the
     // other half of the MIS estimate of direct light (and all of it through delta lobes).
     const bool last = bounce == s_.max_depth;
     if (last && !counts(bounce)) return false;
+    const uint32_t d = dims::bounce(bounce);
     if (!s_.throughput_roulette() && !last && bounce >= 2 && s_.rr_continue < 1.0f) {
-        if (ctx.rng.next_float() >= s_.rr_continue) return false;
+        if (ctx.get1d(d + dims::kRoulette) >= s_.rr_continue) return false;
         beta = beta / s_.rr_continue;
     }
     bsdf::Sample bs;
-    const float u1 = ctx.rng.next_float(), u2 = ctx.rng.next_float(), uc = ctx.rng.next_float();
-    if (!b.sample(wo_l, u1, u2, uc, bs)) return false;
+    const Vec2f u = ctx.get2d(d + dims::kBsdfDir);
+    const float uc = ctx.get1d(d + dims::kBsdfLobe);
+    if (!b.sample(wo_l, u.x, u.y, uc, bs)) return false;
     // Weight of an emitter found by the BSDF sample, given the light strategy's density.
     const auto bsdf_weight = [&](float light_pdf) {
         if (delta || strategy == Strategy::Bsdf) return 1.0f;
@@ -218,7 +236,7 @@ bool PathIntegrator::scatter(const scenes::Material& m, int bounce, Interaction&
     eta_scale *= bs.eta * bs.eta;
     // Not at the last vertex: its BSDF sample only finds emission, and ends the path anyway.
     if (s_.throughput_roulette() && !last && bounce >= 2 &&
-        !throughput_roulette(beta, eta_scale, ctx.rng.next_float()))
+        !throughput_roulette(beta, eta_scale, ctx.get1d(d + dims::kRoulette)))
         return false;
     const accel::Ray ray = spawn_ray(it.p, it.p_error, it.ng, wi, scale_, s_.offset);
     accel::Hit hit;
@@ -267,9 +285,9 @@ bool PathIntegrator::occluded(const Interaction& it, const LightSample& ls, Samp
     return ctx.accel.occluded(shadow, ctx.stats);
 }
 
-Vec3f PathIntegrator::direct_bsdf(const Interaction& it, const Vec3f& wo_l, const Vec3f& t, const Vec3f& bt,
-                                  const bsdf::Bsdf& b, SampleContext& ctx) const {
-    return sum_light_samples(lights_, s_.light_samples, it, ctx.rng, [&](size_t i, int n, const LightSample& ls) {
+Vec3f PathIntegrator::direct_bsdf(const Interaction& it, int bounce, const Vec3f& wo_l, const Vec3f& t,
+                                  const Vec3f& bt, const bsdf::Bsdf& b, SampleContext& ctx) const {
+    return sum_light_samples(lights_, s_.light_samples, it, bounce, ctx, [&](size_t i, int n, const LightSample& ls) {
         const Vec3f wi_l(accel::dot(ls.wi, t), accel::dot(ls.wi, bt), accel::dot(ls.wi, it.ns));
         if ((accel::dot(it.ng, ls.wi) > 0) != (wi_l.z > 0)) return Vec3f(0.0f);
         const Vec3f f = b.f(wo_l, wi_l);
@@ -284,15 +302,14 @@ Vec3f PathIntegrator::direct_bsdf(const Interaction& it, const Vec3f& wo_l, cons
     });
 }
 
-Vec3f PathIntegrator::direct(const Interaction& it, const Vec3f& wo, const Vec3f& albedo,
-                             SampleContext& ctx) const {
-    (void)wo;
-    return s_.hemisphere ? direct_hemisphere(it, albedo, ctx) : direct_lights(it, albedo, ctx);
+Vec3f PathIntegrator::direct(const Interaction& it, int bounce, const Vec3f& albedo, SampleContext& ctx) const {
+    return s_.hemisphere ? direct_hemisphere(it, bounce, albedo, ctx) : direct_lights(it, bounce, albedo, ctx);
 }
 
-Vec3f PathIntegrator::direct_lights(const Interaction& it, const Vec3f& albedo, SampleContext& ctx) const {
+Vec3f PathIntegrator::direct_lights(const Interaction& it, int bounce, const Vec3f& albedo,
+                                    SampleContext& ctx) const {
     const Vec3f f = albedo * accel::kInvPi;  // Lambert: R / pi
-    return sum_light_samples(lights_, s_.light_samples, it, ctx.rng, [&](size_t, int, const LightSample& ls) {
+    return sum_light_samples(lights_, s_.light_samples, it, bounce, ctx, [&](size_t, int, const LightSample& ls) {
         const float cos_s = accel::dot(it.ns, ls.wi);
         if (!(cos_s > 0) || accel::dot(it.ng, ls.wi) <= 0) return Vec3f(0.0f);
         if (occluded(it, ls, ctx)) return Vec3f(0.0f);
@@ -300,12 +317,15 @@ Vec3f PathIntegrator::direct_lights(const Interaction& it, const Vec3f& albedo, 
     });
 }
 
-Vec3f PathIntegrator::direct_hemisphere(const Interaction& it, const Vec3f& albedo, SampleContext& ctx) const {
+Vec3f PathIntegrator::direct_hemisphere(const Interaction& it, int bounce, const Vec3f& albedo,
+                                        SampleContext& ctx) const {
     const Vec3f f = albedo * accel::kInvPi;
     Vec3f sum(0.0f);
     const int n = s_.light_samples;
     for (int k = 0; k < n; ++k) {
-        const Vec3f local = uniform_hemisphere(ctx.rng.next_float(), ctx.rng.next_float());
+        const uint32_t d = k == 0 ? dims::bounce(bounce) : dims::extra_light(bounce, uint32_t(k));
+        const Vec2f u = ctx.get2d(d + dims::kLightPoint);
+        const Vec3f local = uniform_hemisphere(u.x, u.y);
         const Vec3f wi = to_world(local, it.ns);
         if (accel::dot(wi, it.ng) <= 0) continue;
         const accel::Ray ray = spawn_ray(it.p, it.p_error, it.ng, wi, scale_, s_.offset);

@@ -22,15 +22,16 @@ public:
 
 private:
     /// Light arriving at `it` directly from emitters, times the BSDF and cosine.
-    Vec3f direct(const Interaction& it, const Vec3f& wo, const Vec3f& albedo, SampleContext& ctx) const;
-    Vec3f direct_lights(const Interaction& it, const Vec3f& albedo, SampleContext& ctx) const;
-    Vec3f direct_hemisphere(const Interaction& it, const Vec3f& albedo, SampleContext& ctx) const;
+    /// `bounce`: the vertex's index along the path (1 = first hit), for its dimensions.
+    Vec3f direct(const Interaction& it, int bounce, const Vec3f& albedo, SampleContext& ctx) const;
+    Vec3f direct_lights(const Interaction& it, int bounce, const Vec3f& albedo, SampleContext& ctx) const;
+    Vec3f direct_hemisphere(const Interaction& it, int bounce, const Vec3f& albedo, SampleContext& ctx) const;
     /// One vertex on a non-diffuse material: direct light through its BSDF (skipped for
     /// delta lobes), then a BSDF-sampled bounce. Updates it, wo, beta; false ends the path.
     /// eta_scale: the product of eta^2 over the refractions so far (for the roulette).
     bool scatter(const scenes::Material& m, int bounce, Interaction& it, Vec3f& wo, Vec3f& beta,
                  float& eta_scale, Vec3f& L, SampleContext& ctx) const;
-    Vec3f direct_bsdf(const Interaction& it, const Vec3f& wo_l, const Vec3f& t, const Vec3f& bt,
+    Vec3f direct_bsdf(const Interaction& it, int bounce, const Vec3f& wo_l, const Vec3f& t, const Vec3f& bt,
                       const bsdf::Bsdf& b, SampleContext& ctx) const;
     /// Is the light sample's shadow ray (segment, or ray for infinitely far lights) blocked?
     bool occluded(const Interaction& it, const LightSample& ls, SampleContext& ctx) const;

@@ -20,7 +20,7 @@ check() {  # check NAME EXPECTED_STATUS PATTERN -- command...
 check help 0 "--embree-quality" -- "$PT" --help
 grep -q "KHR_materials_unlit" "$TMP/out" || { echo "FAIL help does not list KHR_materials_unlit"; fails=$((fails+1)); }
 for opt in -s -l -t -m -o -a -H -f -r -p --integrator --accel --bvh --leaf-size --triangle \
-           --embree-quality --embree-robust --embree-count --camera --seed --rr --only --max-memory; do
+           --embree-quality --embree-robust --embree-count --camera --seed --rr --sampler --only --max-memory; do
   grep -qE -- "^ +$opt[ ,]" "$TMP/out" || { echo "FAIL help does not document $opt"; fails=$((fails+1)); }
 done
 check missing-scene 2 "error: $TMP/nope.dae: no such file" -- "$PT" "$TMP/nope.dae"
@@ -106,6 +106,25 @@ if [ "$st" -ne 130 ] || ! grep -q "partial" "$TMP/int.out" || [ ! -s "$TMP/int.e
   echo "FAIL interrupt: exit $st, expected 130 with a partial image"; tail -3 "$TMP/int.err"; fails=$((fails+1))
 else
   echo "ok   interrupt-writes-partial"; passes=$((passes+1))
+fi
+# --rr: the throughput roulette by default, the course's fixed probability on request.
+grep -q "course" <("$PT" --help | grep -A4 -- "--rr") || { echo "FAIL --help does not say which roulette is the course's"; fails=$((fails+1)); }
+check rr-fixed 0 "Render time" -- "$PT" -r 16 12 -s 2 --rr 0.65 -f "$TMP/rr.exr" "$SRC/scenes/cornell.dae"
+check bad-rr 2 "--rr 1.5" -- "$PT" --rr 1.5 "$SRC/scenes/cornell.dae"
+check bad-rr-word 2 "--rr fast" -- "$PT" --rr fast "$SRC/scenes/cornell.dae"
+check bad-sampler 2 "--sampler" -- "$PT" --sampler=halton "$SRC/scenes/cornell.dae"
+# Every sampler's image is the same for any thread count, tile and pass size, on a scene
+# with glass, mirror and microfacet spheres (every kind of dimension is drawn).
+if command -v idiff >/dev/null; then
+  for smp in stratified sobol zsobol pmj02; do
+    "$PT" -q -r 40 30 -s 12 -m 4 --seed 3 --sampler=$smp -t 1 --tile 32 -f "$TMP/s1.exr" "$SRC/scenes/cornell_materials.dae" >/dev/null 2>&1
+    "$PT" -q -r 40 30 -s 12 -m 4 --seed 3 --sampler=$smp -t 2 --tile 7 --pass 5 -f "$TMP/s2.exr" "$SRC/scenes/cornell_materials.dae" >/dev/null 2>&1
+    if idiff -fail 0 -warn 0 "$TMP/s1.exr" "$TMP/s2.exr" >/dev/null 2>&1; then
+      echo "ok   sampler-$smp-any-split"; passes=$((passes+1))
+    else
+      echo "FAIL sampler-$smp-any-split: -t 1 and -t 2 --tile 7 --pass 5 differ"; fails=$((fails+1))
+    fi
+  done
 fi
 # Course 3-2 materials render as themselves: no "rendered as diffuse" note.
 check materials-scene 0 "Render time" -- "$PT" -r 16 12 -s 2 -f "$TMP/mat.exr" "$SRC/scenes/cornell_materials.dae"
