@@ -50,6 +50,11 @@ if [ -f "$MIS" ]; then
   oiiotool materials_sheet.png --ch R,G,B,A=1.0 "$MIS" --resize 960x240 --ch R,G,B,A=1.0 --origin +0+480 --over \
     --ch R,G,B --fullsize 960x720 --fullpixels -o materials_sheet.png
 fi
+# An instanced forest (scenegen --kind forest: 10^4 trees of 256 prototypes, 4*10^5
+# triangles): leaf cards cut out by their texture's alpha (glTF alphaMode MASK), in
+# front of the trunks and in the shadows.
+"$(dirname "$PT")/scenegen" --kind forest -n 400000 -o forest.glb > /dev/null && r forest -r 640 400 -s 64 forest.glb
+rm -f forest.glb
 # The README's contact sheet, when the course renders are here too (RENDERS=all).
 if [ -f CBbunny.png ] && [ -f CBspheres_lambertian.png ]; then
   oiiotool CBbunny.png --fit 320x240 CBspheres_lambertian.png --fit 320x240 cornell_materials.png gems_glass.png \
