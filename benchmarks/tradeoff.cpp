@@ -1,7 +1,8 @@
 // tradeoff: the speed-accuracy study. For each Cornell-box scene, error against a
 // high-sample reference versus wall time, for every knob a user can turn: hemisphere vs
 // light sampling, samples per pixel, samples per light, adaptive tolerance, Russian
-// roulette, maximum depth, the accelerator, and the triangle test.
+// roulette, the sampler under each roulette, maximum depth, the accelerator, and the
+// triangle test.
 //
 // Error metric (luminance Y = 0.2126 R + 0.7152 G + 0.0722 B, per pixel):
 //   rel_rmse(region) = sqrt( sum_p (Y_p - Yref_p)^2 / sum_p Yref_p^2 ),  p in region
@@ -68,6 +69,7 @@ struct Config {
     int adaptive_batch = 0;
     float adaptive_tol = 0;
     uint64_t seed = 1;
+    renderer::SamplerKind sampler = renderer::SamplerKind::Independent;
 };
 
 /// Per-pixel luminance, the variance of its mean, and the region masks.
@@ -113,6 +115,7 @@ renderer::RenderResult render(World& w, const Config& c, int width, int height, 
     rs.progress = false;
     rs.adaptive_batch = c.adaptive_batch;
     rs.adaptive_tol = c.adaptive_tol;
+    rs.sampler = c.sampler;
     rs.tiles = tiles;
     return renderer::render(w.camera, integrator, a, rs);
 }
@@ -230,7 +233,7 @@ Errors errors(const renderer::Image& img, const Reference& ref) {
 struct Options {
     std::vector<std::string> scene_paths;
     std::string csv_path, ref_dir = std::string(PT_SOURCE_DIR_BENCH) + "/benchmarks/results/reference";
-    std::string studies_arg = "spp,sampling,light_samples,adaptive,rr,max_depth,backend,triangle_test";
+    std::string studies_arg = "spp,sampling,light_samples,adaptive,rr,sampler_rr,max_depth,backend,triangle_test";
     int width = 160, height = 120, ref_spp = 4096, threads = 0, repeats = 1;
     bool quick = false;
     std::vector<std::string> studies;  ///< --studies, split
@@ -434,6 +437,18 @@ void add_sampling_configs(std::vector<Config>& configs, const Options& o, const 
             c.is.rr_continue = rr;
             add(c);
         }
+    // Every sampler under both roulettes (renderer/sampler.h; --rr): error against time at
+    // 4, 16 and 64 spp, so the efficiency 1 / (error^2 t) of each pair can be read off.
+    if (o.wants("sampler_rr"))
+        for (const char* name : {"independent", "stratified", "sobol", "zsobol", "pmj02"})
+            for (const float rr : {IntegratorSettings::kThroughputRoulette, 0.65f})
+                for (int spp : quick ? std::vector<int>{4} : std::vector<int>{4, 16, 64}) {
+                    Config c{"sampler_rr", fmt::format("{}, rr {}", name, rr < 0 ? "throughput" : "0.65"), double(spp),
+                             base, spp};
+                    c.sampler = renderer::parse_sampler(name);
+                    c.is.rr_continue = rr;
+                    add(c);
+                }
     if (o.wants("max_depth"))
         for (int m : quick ? std::vector<int>{1, 5} : std::vector<int>{1, 2, 3, 4, 5, 8, 16, 100}) {
             Config c{"max_depth", quick ? "spp 2" : "spp 64", double(m), base, quick ? 2 : 64};
