@@ -103,4 +103,5 @@ def main():
         json.dump(gltf, f)
 
 
-main()
+if __name__ == "__main__":
+    main()

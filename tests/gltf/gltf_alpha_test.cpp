@@ -6,28 +6,20 @@
 // just the meshes whose alpha can cut, and traces them as the modes say.
 #include <gtest/gtest.h>
 
-#include <fstream>
-#include <sstream>
 
 #include "accel/accelerator.h"
 #include "renderer/scene_geometry.h"
 #include "scenes/gltf/gltf.h"
 #include "scenes/load.h"
+#include "tests/gltf/gltf_text.h"
 
 namespace {
 
 const std::string kFile = std::string(PT_SOURCE_DIR) + "/tests/gltf/data/alpha_quads.gltf";
 
-std::string file_text() {
-    std::ifstream in(kFile);
-    std::stringstream ss;
-    ss << in.rdbuf();
-    return ss.str();
-}
+std::string file_text() { return gltf_text::read(kFile); }
 
-scenes::Scene load_text(const std::string& text) {
-    return scenes::load_gltf_memory(text.data(), text.size(), "alpha_quads.gltf", "/nonexistent", false);
-}
+scenes::Scene load_text(const std::string& text) { return gltf_text::load(text, "alpha_quads.gltf"); }
 
 const scenes::Material& material(const scenes::Scene& s, const std::string& name) {
     for (const scenes::Material& m : s.materials)

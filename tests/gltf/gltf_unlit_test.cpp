@@ -6,13 +6,12 @@
 // in front of it is what it is with a black panel in its place.
 #include <gtest/gtest.h>
 
-#include <fstream>
-#include <sstream>
 
 #include "renderer/camera.h"
 #include "renderer/render.h"
 #include "scenes/gltf/gltf.h"
 #include "scenes/load.h"
+#include "tests/gltf/gltf_text.h"
 #include "tests/render/render_world.h"
 
 using namespace renderer;
@@ -22,16 +21,9 @@ namespace {
 const std::string kFile = std::string(PT_SOURCE_DIR) + "/tests/gltf/data/unlit_panel.gltf";
 const Vec3f kBase{0.9f, 0.5f, 0.2f};
 
-std::string file_text() {
-    std::ifstream in(kFile);
-    std::stringstream ss;
-    ss << in.rdbuf();
-    return ss.str();
-}
+std::string file_text() { return gltf_text::read(kFile); }
 
-scenes::Scene load_text(const std::string& text) {
-    return scenes::load_gltf_memory(text.data(), text.size(), "unlit_panel.gltf", "/nonexistent", false);
-}
+scenes::Scene load_text(const std::string& text) { return gltf_text::load(text, "unlit_panel.gltf"); }
 
 void replace_all(std::string& s, const std::string& from, const std::string& to) {
     for (size_t at = s.find(from); at != std::string::npos; at = s.find(from, at + to.size()))

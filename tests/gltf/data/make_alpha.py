@@ -12,17 +12,11 @@ side along x, one per material, to cover glTF 2.0's alphaMode (spec section 3.9.
   4 mask_opaque   MASK, a base colour texture whose alpha is 255 everywhere
 
 Images and buffers are data URIs, so the file stands alone."""
-import base64, json, os, struct, zlib
+import base64, json, os, struct, sys
 
-
-def png_rgba(w, h, pixel):
-    raw = b"".join(b"\0" + b"".join(struct.pack(">4B", *pixel(x, y)) for x in range(w)) for y in range(h))
-
-    def chunk(kind, data):
-        return struct.pack(">I", len(data)) + kind + data + struct.pack(">I", zlib.crc32(kind + data))
-
-    return (b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", struct.pack(">IIBBBBB", w, h, 8, 6, 0, 0, 0)) +
-            chunk(b"IDAT", zlib.compress(raw)) + chunk(b"IEND", b""))
+# One PNG writer for the alpha scenes: benchmarks/alpha_cards.py's.
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "..", "..", "benchmarks"))
+from alpha_cards import png_rgba  # noqa: E402
 
 
 def uri(data, mime):
