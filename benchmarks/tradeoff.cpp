@@ -443,7 +443,7 @@ void add_sampling_configs(std::vector<Config>& configs, const Options& o, const 
         for (const char* name : {"independent", "stratified", "sobol", "zsobol", "pmj02"})
             for (const float rr : {IntegratorSettings::kThroughputRoulette, 0.65f})
                 for (int spp : quick ? std::vector<int>{4} : std::vector<int>{4, 16, 64}) {
-                    Config c{"sampler_rr", fmt::format("{}, rr {}", name, rr < 0 ? "throughput" : "0.65"), double(spp),
+                    Config c{"sampler_rr", fmt::format("{} rr={}", name, rr < 0 ? "throughput" : "0.65"), double(spp),
                              base, spp};
                     c.sampler = renderer::parse_sampler(name);
                     c.is.rr_continue = rr;
