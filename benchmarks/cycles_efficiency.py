@@ -115,30 +115,34 @@ def main():
     ap.add_argument('--busy', type=float, default=0.1, help='largest foreign CPU fraction of a timed Cycles render')
     ap.add_argument('--cycles-dir', default='/tmp/cycles_efficiency/cycles')
     ap.add_argument('--out-dir', default='/tmp/cycles_efficiency/ours')
+    ap.add_argument('--no-cycles', action='store_true',
+                    help='ours (and --baseline) only, for scenes the harness cannot import')
     ap.add_argument('--quick', action='store_true')
     a = ap.parse_args()
     if a.quick:
         a.scenes, a.spp, a.seeds, a.ref_spp = a.scenes[:1], [4, 8], [1], 64
         a.cycles_dir += '_quick'
-    if not os.path.isdir(HARNESS):
+    if not a.no_cycles and not os.path.isdir(HARNESS):
         print(f'cycles_efficiency: {HARNESS} not found; skipped')
         return 77
     bins = [('ours', a.pathtracer)] + ([('baseline', a.baseline)] if a.baseline else [])
     print(f'480x360, course framing, 5 bounces (ours -m 6), {a.threads} threads, --lights=mesh; '
           f'relRMSE against each renderer\'s own {a.ref_spp}-spp reference; eff = 1 / (relRMSE^2 t); '
           f'means over seeds {a.seeds}' + (f'; ours with {a.ours_args}' if a.ours_args else ''))
-    head = '| scene | spp | Cycles t s | relRMSE | eff |' + ''.join(
-        f' {l} t s | relRMSE | eff | {l} / Cycles |' for l, _ in bins) + (' ours / baseline |' if a.baseline else '')
+    cyc = not a.no_cycles
+    head = '| scene | spp |' + (' Cycles t s | relRMSE | eff |' if cyc else '') + ''.join(
+        f' {l} t s | relRMSE | eff |' + (f' {l} / Cycles |' if cyc else '') for l, _ in bins) + (
+            ' ours / baseline |' if a.baseline else '')
     print(head)
     print('|' + '---|' * (head.count('|') - 1))
     for scene in a.scenes:
         name = os.path.basename(scene)[:-4]
-        refs = {'cycles': read_rgb(cycles(scene, a.ref_spp, 99, a, reference=True)[0])}
+        refs = {'cycles': read_rgb(cycles(scene, a.ref_spp, 99, a, reference=True)[0])} if cyc else {}
         for label, pt in bins:
             refs[label] = read_rgb(ours(pt, label, scene, a.ref_spp, 99, a, reference=True)[0])
         for spp in a.spp:
             stats = {}
-            for who in ['cycles'] + [l for l, _ in bins]:
+            for who in (['cycles'] if cyc else []) + [l for l, _ in bins]:
                 ts, es = [], []
                 for seed in a.seeds:
                     exr, t = cycles(scene, spp, seed, a) if who == 'cycles' else ours(dict(bins)[who], who, scene, spp,
@@ -148,11 +152,11 @@ def main():
                 # As the harness averages: the mean of each render's efficiency.
                 stats[who] = (float(np.mean(ts)), float(np.mean(es)),
                               float(np.mean([1.0 / (e * e * t) for e, t in zip(es, ts)])))
-            c = stats['cycles']
-            row = f'| {name} | {spp} | {c[0]:.2f} | {c[1]:.4f} | {c[2]:.1f} |'
+            c = stats.get('cycles')
+            row = f'| {name} | {spp} |' + (f' {c[0]:.2f} | {c[1]:.4f} | {c[2]:.1f} |' if c else '')
             for label, _ in bins:
                 s = stats[label]
-                row += f' {s[0]:.2f} | {s[1]:.4f} | {s[2]:.1f} | **{s[2] / c[2]:.2f}** |'
+                row += f' {s[0]:.2f} | {s[1]:.4f} | {s[2]:.1f} |' + (f' **{s[2] / c[2]:.2f}** |' if c else '')
             if a.baseline:
                 row += f' {stats["ours"][2] / stats["baseline"][2]:.2f} |'
             print(row, flush=True)
