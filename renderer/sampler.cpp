@@ -39,8 +39,10 @@ uint32_t owen_scramble(uint32_t v, uint32_t seed) { return reverse_bits(laine_ka
 /// (0,m,2)-net: the first 2^m samples of a pixel are still stratified.
 uint32_t shuffle_index(uint32_t i, uint32_t seed) { return owen_scramble(i, seed); }
 
-/// Sobol's first dimension: the van der Corput sequence, i.e. the index's bits reversed.
-uint32_t sobol0(uint32_t i) { return reverse_bits(i); }
+/// Sobol's first dimension, Owen-scrambled: the van der Corput value (the index's bits
+/// reversed) through owen_scramble, whose first reversal undoes that one, leaving
+/// reverse_bits(laine_karras(i, seed)).
+uint32_t owen_sobol0(uint32_t i, uint32_t seed) { return reverse_bits(laine_karras(i, seed)); }
 
 /// Sobol's second dimension, for the primitive polynomial x + 1 (degree 1, m_1 = 1): its
 /// direction numbers follow from the recurrence m_k = 2 m_{k-1} xor m_{k-1} (Bratley and
@@ -149,9 +151,16 @@ int ceil_log2(uint32_t v) {
     return k;
 }
 
-uint64_t hash3(uint64_t a, uint64_t b, uint64_t c) {
-    return mix64(a ^ mix64(b ^ mix64(c + 0x9E3779B97F4A7C15ull)));
+/// hash3's innermost step, on its last argument alone (Sampler tabulates it per dimension).
+uint64_t hash3_inner(uint64_t c) { return mix64(c + 0x9E3779B97F4A7C15ull); }
+uint64_t hash3(uint64_t a, uint64_t b, uint64_t c) { return mix64(a ^ mix64(b ^ hash3_inner(c))); }
+
+/// `hashed`'s per-sample part: the sample index and which of a 2D point's coordinates.
+uint64_t sample_hash(uint32_t sample, uint32_t which) {
+    return mix64((uint64_t(sample) << 2 | which) + 0xD1B54A32D192ED03ull);
 }
+
+constexpr uint32_t kZSobolSalt = 0x2D50B01u;
 
 }  // namespace
 
@@ -298,18 +307,31 @@ Sampler::Sampler(SamplerKind kind, uint64_t seed, int spp, int width, int height
         }
         default: break;
     }
+    dim_hash_.resize(dims::kLdDimensions);
+    for (uint32_t d = 0; d < dims::kLdDimensions; ++d) dim_hash_[d] = hash3_inner(d);
+    if (kind_ == SamplerKind::ZSobol) {
+        zsobol_scramble_.resize(dims::kLdDimensions);
+        for (uint32_t d = 0; d < dims::kLdDimensions; ++d) zsobol_scramble_[d] = hash3(seed_, kZSobolSalt, d);
+    }
 }
 
 PixelSample::PixelSample(const Sampler& sampler, int x, int y, int width, uint32_t sample)
-    : s_(&sampler), pixel_(uint64_t(y) * uint64_t(width) + uint64_t(x)), morton_(0), sample_(sample) {
+    : s_(&sampler),
+      pixel_(uint64_t(y) * uint64_t(width) + uint64_t(x)),
+      morton_(0),
+      sample_(sample),
+      sample_hash_{sample_hash(sample, 0), sample_hash(sample, 1)} {
     if (sampler.kind_ == SamplerKind::ZSobol)
         morton_ = (morton2(uint32_t(x), uint32_t(y)) << sampler.log2_spp_) | uint64_t(sample);
 }
 
-uint64_t PixelSample::key(uint32_t dim) const { return hash3(s_->seed_, pixel_, dim); }
+uint64_t PixelSample::key(uint32_t dim) const {
+    const uint64_t inner = dim < dims::kLdDimensions ? s_->dim_hash_[dim] : hash3_inner(dim);
+    return mix64(s_->seed_ ^ mix64(pixel_ ^ inner));  // hash3(seed, pixel, dim)
+}
 
 float PixelSample::hashed(uint32_t dim, uint32_t which) const {
-    const uint64_t h = mix64(key(dim) ^ mix64((uint64_t(sample_) << 2 | which) + 0xD1B54A32D192ED03ull));
+    const uint64_t h = mix64(key(dim) ^ sample_hash_[which]);
     return to_unit(uint32_t(h >> 32));
 }
 
@@ -367,12 +389,12 @@ float PixelSample::get1d(uint32_t dim) const {
         case SamplerKind::Sobol: {
             const uint64_t k = key(dim);
             const uint32_t i = shuffle_index(sample_, uint32_t(k));
-            return to_unit(owen_scramble(sobol0(i), uint32_t(k >> 32)));
+            return to_unit(owen_sobol0(i, uint32_t(k >> 32)));
         }
         case SamplerKind::ZSobol: {
             const uint64_t i = zsobol_index(morton_, s.base4_digits_, s.log2_spp_, dim, s.seed_);
-            const uint64_t h = hash3(s.seed_, 0x2D50B01ull, dim);
-            return to_unit(owen_scramble(sobol0(uint32_t(i)), uint32_t(h)));
+            const uint64_t h = s.zsobol_scramble_[dim];
+            return to_unit(owen_sobol0(uint32_t(i), uint32_t(h)));
         }
         case SamplerKind::Pmj02: {
             const uint64_t k = key(dim);
@@ -399,13 +421,13 @@ Vec2f PixelSample::get2d(uint32_t dim) const {
             const uint64_t k = key(dim);
             const uint32_t i = shuffle_index(sample_, uint32_t(k));
             const uint64_t k2 = mix64(k);
-            return {to_unit(owen_scramble(sobol0(i), uint32_t(k >> 32))),
+            return {to_unit(owen_sobol0(i, uint32_t(k >> 32))),
                     to_unit(owen_scramble(sobol1(i), uint32_t(k2)))};
         }
         case SamplerKind::ZSobol: {
             const uint64_t i = zsobol_index(morton_, s.base4_digits_, s.log2_spp_, dim, s.seed_);
-            const uint64_t h = hash3(s.seed_, 0x2D50B01ull, dim);
-            return {to_unit(owen_scramble(sobol0(uint32_t(i)), uint32_t(h))),
+            const uint64_t h = s.zsobol_scramble_[dim];
+            return {to_unit(owen_sobol0(uint32_t(i), uint32_t(h))),
                     to_unit(owen_scramble(sobol1(uint32_t(i)), uint32_t(h >> 32)))};
         }
         case SamplerKind::Pmj02: {

@@ -87,6 +87,10 @@ private:
     int log2_spp_ = 0, base4_digits_ = 0;  // zsobol
     /// pmj02: kPmjTables tables of kPmjSamples points, 32-bit fixed point (x, y) pairs.
     std::vector<uint32_t> pmj_;
+    /// Per low-discrepancy dimension, the parts of its hashes that depend on the dimension
+    /// (and seed) alone, made once per render instead of at every draw: the innermost
+    /// step of PixelSample::key, and zsobol's scramble seed.
+    std::vector<uint64_t> dim_hash_, zsobol_scramble_;
 };
 
 inline constexpr uint32_t kPmjSamples = 1024;
@@ -109,6 +113,7 @@ private:
     uint64_t pixel_;     // y * width + x
     uint64_t morton_;    // zsobol: Morton code of (x, y), shifted above the sample bits
     uint32_t sample_;
+    uint64_t sample_hash_[2];  // the sample's part of `hashed`, for its two coordinates
     uint64_t key(uint32_t dim) const;
     float hashed(uint32_t dim, uint32_t which) const;
     static const uint32_t* pmj_point(const Sampler& s, uint32_t dim, uint32_t sample, uint64_t key);

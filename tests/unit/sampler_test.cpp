@@ -47,7 +47,7 @@ TEST(Sampler, SobolAndPmj02FillEveryElementaryInterval) {
         for (uint32_t n : {16u, 64u, 256u}) {
             // ZSobol lays each pixel's samples out for the sample count; the others ignore it.
             const Sampler s(kind, 3, int(n), 64, 48);
-            for (const auto [x, y] : {std::pair{0, 0}, std::pair{17, 5}, std::pair{63, 47}})
+            for (const auto& [x, y] : {std::pair{0, 0}, std::pair{17, 5}, std::pair{63, 47}})
                 for (uint32_t d : k2dDims) {
                     std::vector<Vec2f> pts;
                     std::vector<float> xs;
