@@ -58,10 +58,15 @@ def read_rgb(path):
     return px[:, :, idx].astype(np.float64)
 
 
-def rel_rmse(img, ref):
-    keep = (ref.max(-1) < 5)[..., None].repeat(3, -1)  # the light panel left out
+def errors(img, ref):
+    """(relative RMSE, plain RMSE) over the image without the light panel (ref above 5)."""
+    keep = (ref.max(-1) < 5)[..., None].repeat(3, -1)
     e = ((img - ref) / (ref + 0.01))[keep]
-    return float(np.sqrt(np.mean(e * e)))
+    return float(np.sqrt(np.mean(e * e))), float(np.sqrt(np.mean((img - ref)[keep] ** 2)))
+
+
+def rel_rmse(img, ref):
+    return errors(img, ref)[0]
 
 
 def cycles(scene, spp, seed, a, reference=False):

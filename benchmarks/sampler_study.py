@@ -3,20 +3,10 @@
 # out; (img - ref) / (ref + 0.01), as ../shared/peers/cycles/cycles_efficiency.py), plain
 # RMSE, 'Render time', and efficiency 1 / (relRMSE^2 t), means over seeds 1 and 2.
 #   /usr/bin/python3 benchmarks/sampler_study.py FOLDER
-import OpenImageIO as oiio, numpy as np, re, sys, glob, os
+import numpy as np, re, sys, glob, os
+
+from cycles_efficiency import errors, read_rgb as rgb  # the same error as the Cycles comparison
 O = sys.argv[1] if len(sys.argv) > 1 else '.'
-
-
-def rgb(p):
-    b = oiio.ImageBuf(p); spec = b.spec(); names = list(spec.channelnames)
-    a = b.get_pixels(oiio.FLOAT).reshape(spec.height, spec.width, spec.nchannels)
-    return np.stack([a[:, :, names.index(c)] for c in 'RGB'], -1)
-
-
-def errors(img, ref):
-    m = (ref.max(-1) < 5)[..., None].repeat(3, -1)
-    rel = ((img - ref) / (ref + 0.01))[m]
-    return float(np.sqrt(np.mean(rel * rel))), float(np.sqrt(np.mean((img - ref)[m] ** 2)))
 
 
 def t_and_rays(f):
