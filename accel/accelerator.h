@@ -8,6 +8,7 @@
 #include <string>
 #include <vector>
 
+#include "accel/instance.h"
 #include "accel/math.h"
 #include "accel/ray.h"
 #include "accel/stats.h"
@@ -25,11 +26,13 @@ enum class GeometryType : uint8_t { Triangles, Spheres };
 /// hit and from many threads at once, so it must be a pure function of its arguments
 /// (no per-call state, no random numbers of its own): that is what makes every backend,
 /// thread count and tile split see the same surface. `ray` is the caller's ray,
-/// unchanged. The same role as Embree's filter functions (Embree 3 API,
+/// unchanged, in world space even for a hit inside an instance; `inst_id` names that
+/// instance (kInvalidId for world-space geometry), so that two placements of one leaf
+/// on one ray can decide apart. The same role as Embree's filter functions (Embree 3 API,
 /// rtcSetGeometryIntersectFilterFunction / rtcSetGeometryOccludedFilterFunction) and
 /// pbrt-v4's alpha test in GeometricPrimitive::Intersect/IntersectP.
-using HitFilter = bool (*)(const void* user, uint32_t geom_id, uint32_t prim_id, float u, float v,
-                           const Ray& ray);
+using HitFilter = bool (*)(const void* user, uint32_t geom_id, uint32_t prim_id, uint32_t inst_id, float u,
+                           float v, const Ray& ray);
 
 /// Non-owning view of one geometry. The memory must outlive the accelerator (Embree
 /// shares it without copying).
@@ -109,6 +112,23 @@ struct AccelOptions {
     LeafPrefetch leaf_prefetch = LeafPrefetch::Auto;  ///< custom BVH (see LeafPrefetch)
 };
 
+/// The instances of a scene (accel/instance.h): prototypes name ranges of the geometry
+/// views, which are then in object space and traced only through instances; every
+/// view outside the prototypes is in world space and traced directly. Empty (the
+/// default): every view is in world space. Views are not copied: both spans must
+/// outlive the accelerator, as the views' memory.
+///
+/// Every backend traces a hit inside an instance as it would the flattened copy, up to
+/// the rounding of the transform: the ray is carried into object space by the inverse
+/// transform (t keeps its meaning, as the direction is not renormalised), tested there,
+/// and the hit names the instance (Hit::inst_id). Watertightness holds within an
+/// instance (one transformed ray meets every triangle of it).
+struct InstanceSet {
+    std::span<const PrototypeView> prototypes;
+    std::span<const InstanceView> instances;
+    bool empty() const { return instances.empty() && prototypes.empty(); }
+};
+
 /// Facts about a built accelerator, for the summary and the benchmarks.
 struct BuildInfo {
     std::string backend;       ///< e.g. "custom(sah, watertight, avx2)": names the kernel that runs
@@ -122,6 +142,10 @@ struct BuildInfo {
     double build_seconds = 0.0;
     bool counts_nodes = false; ///< nodes_visited is meaningful for this backend
     bool counts_prims = true;  ///< prim_tests is meaningful for this backend
+    uint64_t instances = 0;    ///< instances inserted (0: a flat scene)
+    /// Primitives the instances place (each instance's prototype's primitives): what a
+    /// flattened copy would hold besides the world-space ones.
+    uint64_t instanced_primitives = 0;
 };
 
 class Accelerator {
@@ -164,9 +188,14 @@ public:
 
 /// Backend names: "naive", "custom", "embree", or "plugin:PATH[:OPTIONS]" (a library
 /// implementing accel/plugin/accel_plugin.h; accel/plugin/host.h).
+/// `instances`: see InstanceSet; a backend that cannot trace instances (a plugin)
+/// throws AccelError for a non-empty set, and the caller flattens.
 std::unique_ptr<Accelerator> create_accelerator(const std::string& name,
                                                 std::span<const GeometryView> geometry,
-                                                const AccelOptions& options);
+                                                const AccelOptions& options, const InstanceSet& instances = {});
+
+/// Whether the backend `name` traces instances (InstanceSet) itself.
+bool backend_traces_instances(const std::string& name);
 
 /// Whether `name` names a backend a tool may pass to create_accelerator: one of
 /// available_backends(), or "plugin:PATH[:OPTIONS]" (accel/plugin/README.md).

@@ -79,6 +79,26 @@ inline void finish_hit(std::span<const GeometryView> geometry, const Ray& ray, H
     }
 }
 
+/// The ray in an instance's object space, given its world-to-object transform: origin
+/// and direction carried by the affine map, the direction not renormalised, so a t means
+/// the same point in both spaces (pbrt-v4's Transform::ApplyInverse(Ray); Embree's
+/// instances). The segment is [ray.t_min, t_max].
+inline Ray to_object_ray(const Affine3f& world_to_object, const Ray& ray, float t_max) {
+    Ray r;
+    r.org = world_to_object.point(ray.org);
+    r.dir = world_to_object.vector(ray.dir);
+    r.t_min = ray.t_min;
+    r.t_max = t_max;
+    return r;
+}
+
+/// An object-space geometric normal carried to world space as the cross product of the
+/// transformed edges is: cof(L) n = det(L) L^-T n, which from the inverse W = L^-1 is
+/// W^T n / det(W) (Hit::ng's convention; orientation follows the transform).
+inline Vec3f to_world_normal(const Affine3f& world_to_object, const Vec3f& n) {
+    return world_to_object.transpose_vector(n) * float(1.0 / world_to_object.det());
+}
+
 inline Bounds3f primitive_bounds(const GeometryView& g, uint32_t prim) {
     if (g.type == GeometryType::Triangles) {
         Vec3f v0, v1, v2;

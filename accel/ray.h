@@ -28,9 +28,16 @@ struct Hit {
     float u = 0.0f, v = 0.0f;
     uint32_t geom_id = kInvalidId;  ///< index of the GeometryView given at build time
     uint32_t prim_id = kInvalidId;  ///< triangle or sphere index inside that geometry
-    /// Geometric normal, unnormalised. Triangles: cross(v1-v0, v2-v0) (follows winding).
+    /// Geometric normal in world space, unnormalised. Triangles: cross(v1-v0, v2-v0)
+    /// (follows winding); of an instance, the object-space one times the cofactor matrix
+    /// of the linear part L (det L * L^-T), which is the cross product of the transformed
+    /// edges, so it matches the flattened copy up to rounding, orientation included.
     /// Spheres: hit point - centre (outward).
     Vec3f ng;
+    /// The instance (index into InstanceSet::instances) whose prototype holds geom_id;
+    /// kInvalidId for geometry placed in world space. As Embree's instID[0]. Last, so the
+    /// plugin ABI's hit (accel_plugin.h) stays the first 32 bytes of this one.
+    uint32_t inst_id = kInvalidId;
 
     bool valid() const { return geom_id != kInvalidId; }
 };

@@ -47,7 +47,8 @@ float blend_uniform(const accel::Ray& ray, uint32_t geom_id, uint32_t prim_id) {
     return float(h >> 40) * 0x1p-24f;  // 24 bits: exactly representable, < 1
 }
 
-bool alpha_filter(const void* user, uint32_t geom_id, uint32_t prim_id, float u, float v, const accel::Ray& ray) {
+bool alpha_filter(const void* user, uint32_t geom_id, uint32_t prim_id, uint32_t inst_id, float u, float v,
+                  const accel::Ray& ray) {
     const AlphaTest& a = *static_cast<const AlphaTest*>(user);
     const float alpha = surface_alpha(a, prim_id, u, v);
     if (a.mode == scenes::AlphaMode::Mask) return alpha >= a.cutoff;

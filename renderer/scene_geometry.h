@@ -48,7 +48,8 @@ float blend_uniform(const accel::Ray& ray, uint32_t geom_id, uint32_t prim_id);
 /// accel::HitFilter of masked meshes (user = const AlphaTest*): Mask keeps a hit where
 /// alpha >= cutoff (glTF 2.0, 3.9.4); Blend keeps it with probability alpha, deciding by
 /// blend_uniform < alpha.
-bool alpha_filter(const void* user, uint32_t geom_id, uint32_t prim_id, float u, float v, const accel::Ray& ray);
+bool alpha_filter(const void* user, uint32_t geom_id, uint32_t prim_id, uint32_t inst_id, float u, float v,
+                  const accel::Ray& ray);
 
 /// Geometry views over a scene (no copies of triangles), plus the packed sphere array.
 /// Geometry ids: one per mesh in scene order, then one for all spheres if any.

@@ -1,5 +1,5 @@
 // Plain scene description: what loaders produce and the renderer consumes. Everything is
-// in world space. Header-only on purpose: the loader libraries (scenes/collada,
+// in world space except the meshes of prototypes, which instances place. Header-only on purpose: the loader libraries (scenes/collada,
 // scenes/gltf) depend on this header and nothing else of scenes/.
 #pragma once
 
@@ -11,12 +11,15 @@
 #include <optional>
 #include <stdexcept>
 #include <string>
+#include <utility>
 #include <vector>
 
+#include "accel/instance.h"
 #include "accel/math.h"
 
 namespace scenes {
 
+using accel::Affine3f;
 using accel::Bounds3f;
 using accel::Mat4f;
 using accel::Vec2f;
@@ -258,6 +261,28 @@ struct Camera {
     float znear = 0.01f, zfar = 1e30f;
 };
 
+/// A group of meshes in object space, placed by instances: the meshes
+/// [first_mesh, first_mesh + num_meshes) of Scene::meshes. Loaders make one for each mesh
+/// (or group) the file places more than once; a mesh placed once is flattened into
+/// world space, so a scene without reuse has none.
+struct Prototype {
+    std::string name;
+    uint32_t first_mesh = 0;
+    uint32_t num_meshes = 0;
+};
+
+/// One placement of a prototype: Instance::prototype indexes Scene::prototypes, and
+/// Instance::object_to_world is the composed transform of every node above it. The
+/// accelerator's own type (accel/instance.h), so a scene's instances reach a backend
+/// without a copy.
+using Instance = accel::InstanceView;
+
+/// The loaders' bound on what a file may make them build, against hostile files: unique
+/// geometry elements (vertices, indices, texels are bounded by the file's own bytes) and
+/// instances, counted apart, so that a forest of 10^7 placements of a few hundred
+/// meshes is accepted and a file that asks for more of either is refused.
+inline constexpr uint64_t kMaxInstances = uint64_t(1) << 27;
+
 enum class SceneFormat : uint8_t { Collada, Gltf };
 
 struct Scene {
@@ -265,6 +290,8 @@ struct Scene {
     SceneFormat format = SceneFormat::Collada;
     Vec3f up{0.0f, 1.0f, 0.0f};  ///< the file's up axis, in world space
     std::vector<Mesh> meshes;
+    std::vector<Prototype> prototypes;
+    std::vector<Instance> instances;
     std::vector<Sphere> spheres;
     std::vector<Material> materials;
     std::vector<Texture> textures;
@@ -277,15 +304,48 @@ struct Scene {
     /// rendered with its factor alone). Printed on stderr; `pathtracer --strict` refuses.
     std::vector<std::string> warnings;
 
+    /// Unique triangles: every mesh once, prototypes included.
     uint64_t num_triangles() const {
         uint64_t n = 0;
         for (const Mesh& m : meshes) n += m.num_triangles();
         return n;
     }
+    uint64_t prototype_triangles(uint32_t p) const {
+        uint64_t n = 0;
+        for (uint32_t i = 0; i < prototypes[p].num_meshes; ++i) n += meshes[prototypes[p].first_mesh + i].num_triangles();
+        return n;
+    }
+    /// Triangles the instances place (what flattening them would copy).
+    uint64_t instanced_triangles() const {
+        std::vector<uint64_t> per(prototypes.size());
+        for (uint32_t p = 0; p < prototypes.size(); ++p) per[p] = prototype_triangles(p);
+        uint64_t n = 0;
+        for (const Instance& i : instances) n += per[i.prototype];
+        return n;
+    }
+    /// Triangles placed in world space directly (meshes outside every prototype).
+    uint64_t world_triangles() const {
+        uint64_t n = num_triangles();
+        for (uint32_t p = 0; p < prototypes.size(); ++p) n -= prototype_triangles(p);
+        return n;
+    }
+    /// For each mesh, the prototype holding it, or -1 for a world-space mesh.
+    std::vector<int32_t> mesh_prototypes() const {
+        std::vector<int32_t> r(meshes.size(), -1);
+        for (uint32_t p = 0; p < prototypes.size(); ++p)
+            for (uint32_t i = 0; i < prototypes[p].num_meshes; ++i) r[prototypes[p].first_mesh + i] = int32_t(p);
+        return r;
+    }
     Bounds3f bounds() const {
         Bounds3f b;
-        for (const Mesh& m : meshes)
-            for (uint32_t i = 0; i < m.num_vertices(); ++i) b.extend(m.positions[i]);
+        const std::vector<int32_t> owner = mesh_prototypes();
+        std::vector<Bounds3f> proto(prototypes.size());
+        for (size_t mi = 0; mi < meshes.size(); ++mi) {
+            const Mesh& m = meshes[mi];
+            Bounds3f& into = owner[mi] < 0 ? b : proto[size_t(owner[mi])];
+            for (uint32_t i = 0; i < m.num_vertices(); ++i) into.extend(m.positions[i]);
+        }
+        for (const Instance& i : instances) b.extend(i.object_to_world.bounds(proto[i.prototype]));
         for (const Sphere& s : spheres) {
             b.extend(s.center - Vec3f(s.radius));
             b.extend(s.center + Vec3f(s.radius));
@@ -300,5 +360,68 @@ class SceneError : public std::runtime_error {
 public:
     using std::runtime_error::runtime_error;
 };
+
+/// Replaces every instance by world-space copies of its prototype's meshes and drops the
+/// prototypes: the scene a loader without instancing would have made
+/// (`pathtracer --instancing=flatten`, and the reference instanced renders are checked
+/// against). Positions go through the transform, shading normals through the inverse
+/// transpose (renormalised). A transform that mirrors (det L < 0) reverses the copy's
+/// winding, so its front face stays the prototype's (glTF 2.0, 3.7.4: the determinant
+/// of the global transform sets the winding; pbrt-v4 flips a triangle's normal when its
+/// transform swaps handedness); the renderer flips an instanced hit's normal likewise.
+/// Throws SceneError when the copies would hold more than `max_elements` vertex and
+/// index elements (the loaders' bound on a flat scene), before allocating them.
+inline void flatten_instances(Scene& scene, uint64_t max_elements = uint64_t(1) << 28) {
+    if (scene.prototypes.empty() && scene.instances.empty()) return;
+    {
+        uint64_t elements = 0;
+        std::vector<uint64_t> per(scene.prototypes.size(), 0);
+        for (size_t p = 0; p < scene.prototypes.size(); ++p)
+            for (uint32_t k = 0; k < scene.prototypes[p].num_meshes; ++k) {
+                const Mesh& m = scene.meshes[scene.prototypes[p].first_mesh + k];
+                per[p] += m.positions.size() + m.indices.size() + m.normals.size() + m.uvs.size();
+            }
+        for (const Mesh& m : scene.meshes) elements += m.positions.size() + m.indices.size();
+        for (const Instance& i : scene.instances) elements += per[i.prototype];
+        if (elements > max_elements)
+            throw SceneError(scene.source + ": flattening " + std::to_string(scene.instances.size()) +
+                             " instances makes " + std::to_string(elements) + " vertex/index elements, more than " +
+                             std::to_string(max_elements) + " (trace them as instances)");
+    }
+    const std::vector<int32_t> owner = scene.mesh_prototypes();
+    std::vector<Mesh> out;
+    for (size_t mi = 0; mi < scene.meshes.size(); ++mi)
+        if (owner[mi] < 0) out.push_back(std::move(scene.meshes[mi]));
+    for (const Instance& inst : scene.instances) {
+        const Prototype& p = scene.prototypes[inst.prototype];
+        const Affine3f& m = inst.object_to_world;
+        const Affine3f n = m.inverse();  // normals: transpose_vector of the inverse
+        for (uint32_t k = 0; k < p.num_meshes; ++k) {
+            const Mesh& src = scene.meshes[p.first_mesh + k];
+            Mesh c;
+            c.name = src.name;
+            c.material = src.material;
+            c.indices = src.indices;
+            if (m.det() < 0.0)
+                for (size_t t = 0; t + 2 < c.indices.size(); t += 3) std::swap(c.indices[t + 1], c.indices[t + 2]);
+            c.uvs = src.uvs;
+            c.positions.reserve(src.positions.size());
+            for (uint32_t v = 0; v < src.num_vertices(); ++v) c.positions.push_back(m.point(src.positions[v]));
+            c.pad_positions();
+            c.normals.reserve(src.normals.size());
+            for (const Vec3f& nv : src.normals) {
+                const Vec3f w = n.transpose_vector(nv);
+                const float len = accel::length(w);
+                c.normals.push_back(len > 0.0f ? w / len : nv);
+            }
+            out.push_back(std::move(c));
+        }
+    }
+    scene.meshes = std::move(out);
+    scene.prototypes.clear();
+    scene.instances.clear();
+    scene.instances.shrink_to_fit();
+}
+
 
 }  // namespace scenes

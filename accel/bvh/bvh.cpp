@@ -117,7 +117,9 @@ NodeLayout resolve_layout(NodeLayout layout, uint64_t primitives) {
     return primitives >= kQuantizeFrom ? NodeLayout::Quantized : NodeLayout::Float;
 }
 
-std::unique_ptr<Accelerator> make_bvh(std::span<const GeometryView> geometry, const AccelOptions& options) {
+std::unique_ptr<Accelerator> make_bvh(std::span<const GeometryView> geometry, const AccelOptions& options,
+                                      const InstanceSet& instances) {
+    if (!instances.empty()) throw AccelError("custom: instances not implemented yet");
     const Isa isa = resolve_isa(options.isa);
     uint64_t prims = 0;
     bool masked = false;

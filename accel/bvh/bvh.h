@@ -18,7 +18,7 @@ namespace accel {
 /// BuildInfo::sah_cost is the binary tree's SAH cost with C_trav = 1 and C_isect = 1
 /// per leaf block of four (tree_facts in build.h).
 std::unique_ptr<Accelerator> make_bvh(std::span<const GeometryView> geometry,
-                                      const AccelOptions& options);
+                                      const AccelOptions& options, const InstanceSet& instances = {});
 
 /// "sse2", "avx2", "avx512" ("auto" for Auto).
 const char* isa_name(Isa isa);

@@ -510,7 +510,7 @@ PT_INLINE inline void prefetch_leaves(const Block* blocks, uint32_t hint) {
 PT_INLINE inline bool keep_hit(const WideBvh& w, const Block& b, int lane, float u, float v, const Ray& ray) {
     const uint32_t geom = w.lane_geom.empty() ? w.one_geom : w.lane_geom[size_t(&b - w.blocks.data()) * 4 + size_t(lane)];
     const GeometryView& g = w.geometry[geom];
-    return !g.filter || g.filter(g.filter_user, geom, b.prim[lane], u, v, ray);
+    return !g.filter || g.filter(g.filter_user, geom, b.prim[lane], kInvalidId, u, v, ray);
 }
 
 /// Whether some hit lane of a leaf test (lanes 4k..4k+3 from block b[k]) survives the

@@ -131,7 +131,7 @@ void user_bounds(const RTCBoundsFunctionArguments* args) {
 
 /// The renderer's test of a candidate hit on masked geometry (GeometryView::filter).
 inline bool keep_hit(const UserGeom& g, uint32_t prim, float u, float v, const Ray& ray) {
-    return !g.view->masked() || g.view->filter(g.view->filter_user, g.geom_id, prim, u, v, ray);
+    return !g.view->masked() || g.view->filter(g.view->filter_user, g.geom_id, prim, kInvalidId, u, v, ray);
 }
 
 /// Intersection and occlusion filter of masked triangle geometry (Embree 3 API,
@@ -467,13 +467,14 @@ private:
 
 std::unique_ptr<Accelerator> make_embree(std::span<const GeometryView> geometry,
                                          const AccelOptions& options,
-                                         const std::string& extra_device_config) {
+                                         const std::string& extra_device_config, const InstanceSet& instances) {
+    if (!instances.empty()) throw AccelError("embree: instances not implemented yet");
     return std::make_unique<EmbreeAccelerator>(geometry, options, extra_device_config);
 }
 
 std::unique_ptr<Accelerator> make_embree(std::span<const GeometryView> geometry,
-                                         const AccelOptions& options) {
-    return make_embree(geometry, options, std::string());
+                                         const AccelOptions& options, const InstanceSet& instances) {
+    return make_embree(geometry, options, std::string(), instances);
 }
 
 }  // namespace accel

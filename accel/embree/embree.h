@@ -14,13 +14,14 @@ namespace accel {
 /// (options.embree_count): every primitive is a user geometry running
 /// accel::intersect_primitive, so prim_tests are counted on the same terms as our BVH.
 /// Embree errors surface as AccelError("Embree error RTC_ERROR_...: text").
+/// Instances: one child scene per prototype, placed by RTC_GEOMETRY_TYPE_INSTANCE.
 std::unique_ptr<Accelerator> make_embree(std::span<const GeometryView> geometry,
-                                         const AccelOptions& options);
+                                         const AccelOptions& options, const InstanceSet& instances = {});
 
 /// As make_embree, with `extra_device_config` appended to the rtcNewDevice config string
 /// (e.g. "verbose=1" or "tri_accel=bvh4.triangle4v"). For experiments and for the tests
 /// that provoke genuine Embree errors through the real error path.
 std::unique_ptr<Accelerator> make_embree(std::span<const GeometryView> geometry,
                                          const AccelOptions& options,
-                                         const std::string& extra_device_config);
+                                         const std::string& extra_device_config, const InstanceSet& instances = {});
 }  // namespace accel

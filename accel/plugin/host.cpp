@@ -26,7 +26,9 @@ namespace {
 static_assert(sizeof(Ray) == sizeof(AccelPluginRay) && offsetof(Ray, dir) == offsetof(AccelPluginRay, dir) &&
               offsetof(Ray, t_min) == offsetof(AccelPluginRay, t_min) &&
               offsetof(Ray, t_max) == offsetof(AccelPluginRay, t_max));
-static_assert(sizeof(Hit) == sizeof(AccelPluginHit) && offsetof(Hit, u) == offsetof(AccelPluginHit, u) &&
+// The ABI's hit is the first 32 bytes of ours: plugins trace no instances, and the host
+// clears inst_id after each of their hits.
+static_assert(sizeof(AccelPluginHit) == offsetof(Hit, inst_id) && offsetof(Hit, u) == offsetof(AccelPluginHit, u) &&
               offsetof(Hit, v) == offsetof(AccelPluginHit, v) &&
               offsetof(Hit, geom_id) == offsetof(AccelPluginHit, geom_id) &&
               offsetof(Hit, prim_id) == offsetof(AccelPluginHit, prim_id) &&
@@ -192,6 +194,7 @@ public:
         if (rc == ACCEL_PLUGIN_MISS) return false;
         if (rc != ACCEL_PLUGIN_HIT) fail("intersect", rc, error);
         check(hit.geom_id, hit.prim_id);
+        hit.inst_id = kInvalidId;
         if (!normals_) finish_hit(geometry_, ray, hit);
         return true;
     }
@@ -294,6 +297,7 @@ private:
         hit.v = h.v;
         hit.geom_id = h.geom_id;
         hit.prim_id = h.prim_id;
+        hit.inst_id = kInvalidId;
         if (normals_)
             hit.ng = {h.ng[0], h.ng[1], h.ng[2]};
         else
