@@ -678,21 +678,19 @@ TreeFacts tree_facts(const std::vector<Node>& nodes) {
     return f;
 }
 
-BinaryTree build_binary(std::span<const GeometryView> geometry, const std::vector<PrimRef>& refs,
-                        BvhSplit split, uint32_t leaf_size, int threads) {
+namespace {
+/// The binned build over n primitives whose BuildPrim `fill(i)` makes; order[i] is
+/// `ref(id)` of the primitive placed at slot i.
+template <class Fill, class Ref>
+BinaryTree build_prims(uint32_t n, BvhSplit split, uint32_t leaf_size, int threads, const Fill& fill, const Ref& ref) {
     BinaryTree tree;
-    const uint32_t n = uint32_t(refs.size());
     if (n == 0) return tree;
     tbb::task_arena arena(threads > 0 ? threads : tbb::task_arena::automatic);
     arena.execute([&] {
         FreshArray<BuildPrim> prims(n);
         tbb::parallel_for(tbb::blocked_range<uint32_t>(0, n, 1024),
                           [&](const tbb::blocked_range<uint32_t>& r) {
-                              for (uint32_t i = r.begin(); i < r.end(); ++i) {
-                                  const GeometryView& g = geometry[refs[i].geom];
-                                  const Bounds3f b = primitive_bounds(g, refs[i].prim);
-                                  prims[i] = {b.lo, i, b.hi, g.type == GeometryType::Spheres ? 1u : 0u};
-                              }
+                              for (uint32_t i = r.begin(); i < r.end(); ++i) prims[i] = fill(i);
                           });
         ChunkArena arena;
         Builder builder(prims.p, split, leaf_size, arena);
@@ -702,11 +700,35 @@ BinaryTree build_binary(std::span<const GeometryView> geometry, const std::vecto
         prepare_fresh(tree.order.data(), size_t(n) * sizeof(PrimRef));
         tree.order.resize(n);
         tbb::parallel_for(tbb::blocked_range<uint32_t>(0, n, 16384), [&](const tbb::blocked_range<uint32_t>& r) {
-            for (uint32_t i = r.begin(); i < r.end(); ++i) tree.order[i] = refs[prims[i].id];
+            for (uint32_t i = r.begin(); i < r.end(); ++i) tree.order[i] = ref(prims[i].id);
         });
         root = Part{};
     });
     return tree;
+}
+}  // namespace
+
+BinaryTree build_binary(std::span<const GeometryView> geometry, const std::vector<PrimRef>& refs,
+                        BvhSplit split, uint32_t leaf_size, int threads) {
+    return build_prims(
+        uint32_t(refs.size()), split, leaf_size, threads,
+        [&](uint32_t i) {
+            const GeometryView& g = geometry[refs[i].geom];
+            const Bounds3f b = primitive_bounds(g, refs[i].prim);
+            return BuildPrim{b.lo, i, b.hi, g.type == GeometryType::Spheres ? 1u : 0u};
+        },
+        [&](uint32_t id) { return refs[id]; });
+}
+
+BinaryTree build_boxes(uint32_t n, const std::function<Bounds3f(uint32_t)>& box, BvhSplit split, uint32_t leaf_size,
+                       int threads) {
+    return build_prims(
+        n, split, leaf_size, threads,
+        [&](uint32_t i) {
+            const Bounds3f b = box(i);
+            return BuildPrim{b.lo, i, b.hi, 0u};
+        },
+        [](uint32_t id) { return PrimRef{0, id}; });
 }
 
 }  // namespace accel::bvh

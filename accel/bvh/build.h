@@ -3,6 +3,7 @@
 #pragma once
 
 #include <cstdint>
+#include <functional>
 #include <span>
 #include <vector>
 
@@ -45,6 +46,12 @@ struct BinaryTree {
 /// (triangles or spheres), so every leaf maps to one kind of SIMD block.
 BinaryTree build_binary(std::span<const GeometryView> geometry, const std::vector<PrimRef>& refs,
                         BvhSplit split, uint32_t leaf_size, int threads);
+
+/// The same binned build over n boxes, box(i) each (called once per box, from several
+/// threads): the top level of the two-level BVH (instanced.cpp), whose primitives are
+/// instances. order[k].prim is the box index at leaf slot k (geom is 0).
+BinaryTree build_boxes(uint32_t n, const std::function<Bounds3f(uint32_t)>& box, BvhSplit split, uint32_t leaf_size,
+                       int threads);
 
 struct TreeFacts {
     uint64_t leaves = 0;

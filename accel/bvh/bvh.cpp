@@ -11,6 +11,7 @@
 
 #include "accel/bvh/base.h"
 #include "accel/bvh/dispatch.h"
+#include "accel/bvh/instanced.h"
 #include "accel/primitive.h"
 
 namespace accel {
@@ -119,8 +120,25 @@ NodeLayout resolve_layout(NodeLayout layout, uint64_t primitives) {
 
 std::unique_ptr<Accelerator> make_bvh(std::span<const GeometryView> geometry, const AccelOptions& options,
                                       const InstanceSet& instances) {
-    if (!instances.empty()) throw AccelError("custom: instances not implemented yet");
     const Isa isa = resolve_isa(options.isa);
+    if (!instances.empty()) {
+        // One node layout for both levels (one kernel policy): Auto decides by the larger
+        // of the top level (the placements) and the largest bottom tree.
+        uint64_t most = instances.instances.size() + 1;
+        bool masked = false;
+        for (const PrototypeView& p : instances.prototypes) {
+            uint64_t n = 0;
+            for (uint32_t g = 0; g < p.num_geoms; ++g) n += geometry[p.first_geom + g].num_prims;
+            most = std::max(most, n);
+        }
+        for (const GeometryView& g : geometry) masked |= g.masked();
+        const bool quantized = resolve_layout(options.nodes, most) == NodeLayout::Quantized;
+        std::unique_ptr<bvh::InstancedBase> b = bvh::make_instanced(isa, options.triangle, quantized, masked);
+        if (b->build(geometry, options, instances, isa, quantized)) return b;
+        b = bvh::make_instanced(isa, options.triangle, false, masked);
+        b->build(geometry, options, instances, isa, false);
+        return b;
+    }
     uint64_t prims = 0;
     bool masked = false;
     for (const GeometryView& g : geometry) prims += g.num_prims, masked |= g.masked();

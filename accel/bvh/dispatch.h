@@ -6,6 +6,7 @@
 #include <memory>
 
 #include "accel/bvh/base.h"
+#include "accel/bvh/instanced.h"
 
 namespace accel::bvh {
 
@@ -18,5 +19,8 @@ std::unique_ptr<BvhBase> make_kernel_avx512(TriangleTest test, bool quantized, b
 
 /// The kernel for `isa` (Auto resolved first); throws AccelError if this CPU lacks it.
 std::unique_ptr<BvhBase> make_kernel(Isa isa, TriangleTest test, bool quantized, bool masked = false);
+
+/// The two-level kernel for `isa` (instanced.h), as make_kernel.
+std::unique_ptr<InstancedBase> make_instanced(Isa isa, TriangleTest test, bool quantized, bool masked);
 
 }  // namespace accel::bvh

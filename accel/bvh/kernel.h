@@ -31,6 +31,7 @@
 #include <limits>
 
 #include "accel/bvh/base.h"
+#include "accel/bvh/instanced.h"
 #include "accel/sphere.h"
 #include "accel/triangle.h"
 
@@ -502,29 +503,46 @@ PT_INLINE inline void prefetch_leaves(const Block* blocks, uint32_t hint) {
     for (; p < end; p += 64) _mm_prefetch(p, _MM_HINT_T0);
 }
 
+/// What a hit filter is told besides the hit (HitFilter): the caller's world-space ray,
+/// the instance, and what turns a tree's geometry ids into the caller's (a prototype's
+/// tree numbers its geometries from 0). The Masked traversals take a FilterArgs; the
+/// opaque ones NoFilter, an empty class, which the x86-64 SysV ABI passes in no register
+/// at all, so their instructions stay those they had before instances existed.
+struct NoFilter {};
+struct FilterArgs {
+    const Ray* world;
+    uint32_t inst;
+    uint32_t geom_base;
+};
+
 /// The hit filter of masked geometry (GeometryView::filter) for a hit in lane `lane` of
 /// block `b`: true when the lane's geometry is opaque or its filter keeps the hit. Only
 /// the Masked instantiations below call it, so a scene without masked geometry runs
 /// kernels that contain no trace of it. Written here rather than through lane_primitive
 /// (wide.h), whose out-of-line copy this file's flags could make the linker's pick.
-PT_INLINE inline bool keep_hit(const WideBvh& w, const Block& b, int lane, float u, float v, const Ray& ray) {
+PT_INLINE inline bool keep_hit(const WideBvh& w, const Block& b, int lane, float u, float v, const FilterArgs& f) {
     const uint32_t geom = w.lane_geom.empty() ? w.one_geom : w.lane_geom[size_t(&b - w.blocks.data()) * 4 + size_t(lane)];
     const GeometryView& g = w.geometry[geom];
-    return !g.filter || g.filter(g.filter_user, geom, b.prim[lane], kInvalidId, u, v, ray);
+    return !g.filter || g.filter(g.filter_user, geom + f.geom_base, b.prim[lane], f.inst, u, v, *f.world);
 }
+/// Never called (Masked is false wherever NoFilter is passed); it lets the opaque
+/// instantiations compile the filter's branch, which `!Masked ||` then removes.
+PT_INLINE inline bool keep_hit(const WideBvh&, const Block&, int, float, float, NoFilter) { return true; }
 
 /// Whether some hit lane of a leaf test (lanes 4k..4k+3 from block b[k]) survives the
 /// filter: the any-hit query's test on masked scenes.
 template <class L>
-PT_INLINE inline bool any_kept(const L& lanes, unsigned hit, const Block* b, const WideBvh& w, const Ray& ray) {
+PT_INLINE inline bool any_kept(const L& lanes, unsigned hit, const Block* b, const WideBvh& w, const FilterArgs& f) {
     alignas(64) float tt[16], uu[16], vv[16];
     lanes.store(tt, uu, vv);
     for (; hit; hit &= hit - 1) {
         const int l = __builtin_ctz(hit);
-        if (keep_hit(w, b[l >> 2], l & 3, uu[l], vv[l], ray)) return true;
+        if (keep_hit(w, b[l >> 2], l & 3, uu[l], vv[l], f)) return true;
     }
     return false;
 }
+template <class L>
+PT_INLINE inline bool any_kept(const L&, unsigned, const Block*, const WideBvh&, NoFilter) { return true; }
 
 /// The closest hit traverse found: its distance, barycentrics, and the block and lane
 /// of its primitive (BvhBase::finish takes the ids and the normal from there, not from
@@ -554,8 +572,8 @@ struct Closest {
 /// the segment as it was, so traversal goes on behind it. The views come through w, not
 /// as an argument, so that the opaque instantiations keep the signature, and so the
 /// instructions, they had before filters existed.
-template <class P, TriangleTest Test, bool Count, bool HasSpheres, bool Masked = false>
-Closest traverse(const WideBvh& w, const Ray& ray_in, TraceStats& stats) {
+template <class P, TriangleTest Test, bool Count, bool HasSpheres, bool Masked = false, class F = NoFilter>
+Closest traverse(const WideBvh& w, const Ray& ray_in, TraceStats& stats, F f = {}) {
     const typename P::Node* nodes = node_array<typename P::Node>(w);
     if (!nodes) return {};
     // A local copy: through a reference every store to t could alias the ray and the
@@ -619,7 +637,7 @@ Closest traverse(const WideBvh& w, const Ray& ray_in, TraceStats& stats) {
                         const int l = __builtin_ctz(hit);
                         hit &= hit - 1;
                         const Block* hb = b + (l >> 2);
-                        if (tt[l] <= t && (!Masked || keep_hit(w, *hb, l & 3, uu[l], vv[l], ray_in)))
+                        if (tt[l] <= t && (!Masked || keep_hit(w, *hb, l & 3, uu[l], vv[l], f)))
                             t = tt[l], u = uu[l], v = vv[l], at = {hb, l & 3};
                     }
                     b += two;
@@ -634,7 +652,7 @@ Closest traverse(const WideBvh& w, const Ray& ray_in, TraceStats& stats) {
                 do {
                     const int l = __builtin_ctz(hit);
                     hit &= hit - 1;
-                    if (tt[l] <= t && (!Masked || keep_hit(w, *b, l, uu[l], vv[l], ray_in)))
+                    if (tt[l] <= t && (!Masked || keep_hit(w, *b, l, uu[l], vv[l], f)))
                         t = tt[l], u = uu[l], v = vv[l], at = {b, l};
                 } while (hit);
             }
@@ -718,8 +736,8 @@ Closest traverse(const WideBvh& w, const Ray& ray_in, TraceStats& stats) {
 /// order only where two children are hit, or only in bottom nodes, lost 1-10 % on
 /// every mesh (same decision). Counting as in traverse.
 /// Masked: as in traverse, a hit lane occludes only if keep_hit keeps it.
-template <class P, TriangleTest Test, bool Count, bool HasSpheres, bool Masked = false>
-bool occlude(const WideBvh& w, const Ray& ray_in, TraceStats& stats) {
+template <class P, TriangleTest Test, bool Count, bool HasSpheres, bool Masked = false, class F = NoFilter>
+bool occlude(const WideBvh& w, const Ray& ray_in, TraceStats& stats, F f = {}) {
     const typename P::Node* nodes = node_array<typename P::Node>(w);
     if (!nodes) return false;
     const Ray ray = ray_in;
@@ -771,7 +789,7 @@ bool occlude(const WideBvh& w, const Ray& ray_in, TraceStats& stats) {
                         } else {
                             const auto lanes = tri16_mt(b[0], b[1], b[2], b3, lr, t);
                             const unsigned hit = lanes.mask & (four ? 0xFFFFu : 0x0FFFu);
-                            if (hit && any_kept(lanes, hit, b, w, ray_in)) return finish(true);
+                            if (hit && any_kept(lanes, hit, b, w, f)) return finish(true);
                         }
                         b += 2 + four;
                         continue;
@@ -785,7 +803,7 @@ bool occlude(const WideBvh& w, const Ray& ray_in, TraceStats& stats) {
                     } else {
                         const auto lanes = tri8<Test>(b[0], b1, lr, t);
                         const unsigned hit = lanes.mask & (two ? 0xFFu : 0x0Fu);
-                        if (hit && any_kept(lanes, hit, b, w, ray_in)) return finish(true);
+                        if (hit && any_kept(lanes, hit, b, w, f)) return finish(true);
                     }
                     b += two;
                     continue;
@@ -795,7 +813,7 @@ bool occlude(const WideBvh& w, const Ray& ray_in, TraceStats& stats) {
                     if (tri4<Test>(*b, lr, t).mask) return finish(true);
                 } else {
                     const auto lanes = tri4<Test>(*b, lr, t);
-                    if (lanes.mask && any_kept(lanes, lanes.mask, b, w, ray_in)) return finish(true);
+                    if (lanes.mask && any_kept(lanes, lanes.mask, b, w, f)) return finish(true);
                 }
             }
         } else {
@@ -865,18 +883,211 @@ class MaskedKernel final : public BvhBase {
 public:
     bool intersect(const Ray& ray, Hit& hit, TraceStats& stats) const override {
         ++stats.rays;
-        const Closest c = stats.counting ? traverse<P, Test, true, true, true>(wide_, ray, stats)
-                                         : traverse<P, Test, false, true, true>(wide_, ray, stats);
+        const FilterArgs f{&ray, kInvalidId, 0};
+        const Closest c = stats.counting ? traverse<P, Test, true, true, true>(wide_, ray, stats, f)
+                                         : traverse<P, Test, false, true, true>(wide_, ray, stats, f);
         if (!c.at.block) return false;
         finish(c.at, ray, c.t, c.u, c.v, hit);
         return true;
     }
     bool occluded(const Ray& ray, TraceStats& stats) const override {
         ++stats.shadow_rays;
-        return stats.counting ? occlude<P, Test, true, true, true>(wide_, ray, stats)
-                              : occlude<P, Test, false, true, true>(wide_, ray, stats);
+        const FilterArgs f{&ray, kInvalidId, 0};
+        return stats.counting ? occlude<P, Test, true, true, true>(wide_, ray, stats, f)
+                              : occlude<P, Test, false, true, true>(wide_, ray, stats, f);
     }
 };
+
+/// The closest hit over the two-level BVH (instanced.h): the placement it lies in, and
+/// the bottom tree's Closest.
+struct TopClosest {
+    Closest c;
+    const Placement* at;
+};
+
+/// to_object_ray (accel/primitive.h) in this file's namespace, the same operations in the
+/// same order (so the same bits, -ffp-contract=off): the Affine3f members are inline
+/// functions of a shared header, whose out-of-line copy from this file could be the one
+/// the linker keeps (tests/bvh/kernel_symbols.cmake).
+PT_INLINE inline Ray object_ray(const Affine3f& a, const Ray& r, float t) {
+    const auto& m = a.m;
+    Ray o;
+    o.org = {m[0][0] * r.org.x + m[0][1] * r.org.y + m[0][2] * r.org.z + m[0][3],
+             m[1][0] * r.org.x + m[1][1] * r.org.y + m[1][2] * r.org.z + m[1][3],
+             m[2][0] * r.org.x + m[2][1] * r.org.y + m[2][2] * r.org.z + m[2][3]};
+    o.dir = {m[0][0] * r.dir.x + m[0][1] * r.dir.y + m[0][2] * r.dir.z,
+             m[1][0] * r.dir.x + m[1][1] * r.dir.y + m[1][2] * r.dir.z,
+             m[2][0] * r.dir.x + m[2][1] * r.dir.y + m[2][2] * r.dir.z};
+    o.t_min = r.t_min;
+    o.t_max = t;
+    return o;
+}
+
+/// The bottom tree of placement p, traced with the segment [ray.t_min, t]: the ray goes
+/// into the instance's object space first (to_object_ray: t keeps its meaning, so the
+/// bottom traversal's t is the world one), unless p is the world-space geometry. The
+/// filter is told the world ray, the instance and the prototype's first geometry id.
+template <class P, TriangleTest Test, bool Count, bool Masked>
+PT_INLINE inline Closest trace_bottom(const InstancedBase& s, const Placement& p, const Ray& ray, float t,
+                                      TraceStats& stats) {
+    const Ray local = p.inst == kInvalidId ? Ray{ray.org, ray.dir, ray.t_min, t} : object_ray(p.world_to_object, ray, t);
+    const WideBvh& w = *s.bottom_wide_[p.bottom];
+    if constexpr (Masked)
+        return traverse<P, Test, Count, true, true>(w, local, stats, FilterArgs{&ray, p.inst, s.geom_base_[p.bottom]});
+    else
+        return traverse<P, Test, Count, true>(w, local, stats);
+}
+
+/// Closest hit of the two-level BVH: the top tree's nodes are tested as a flat tree's
+/// (P::test, ordered, entries beyond the closest hit dropped on pop), and a leaf's
+/// placements each run the flat traversal (traverse) of their bottom tree, the segment
+/// shrinking across them. Counting: nodes of both levels, and the bottom's leaf lanes.
+template <class P, TriangleTest Test, bool Count, bool Masked>
+TopClosest traverse_top(const InstancedBase& s, const Ray& ray, TraceStats& stats) {
+    const typename P::Node* nodes = node_array<typename P::Node>(s.top_);
+    TopClosest best{{ray.t_max, 0.0f, 0.0f, {}}, nullptr};
+    if (!nodes) return best;
+    float t = ray.t_max;
+    uint64_t boxes = 0;
+    const Planes pl(ray);
+    typename P::Box box(pl, ray.t_min, t);
+    float t_far = t * kFarScale;
+    struct Entry {
+        uint32_t ref, count;
+        float t;
+    };
+    Entry stack[(kWidth - 1) * kStackSize];
+    uint32_t sp = 0, ref = 0, count = 0;
+    for (;;) {
+        if (ref & WideNode::kLeaf) {
+            const Placement* p = s.placements_.data() + (ref & ~WideNode::kLeaf);
+            for (const Placement* end = p + count; p != end; ++p) {
+                const Closest c = trace_bottom<P, Test, Count, Masked>(s, *p, ray, t, stats);
+                if (c.at.block) t = c.t, best = {c, p};
+            }
+            box.limit(t);
+            t_far = t * kFarScale;
+        } else {
+            const auto& n = nodes[ref];
+            if constexpr (Count) ++boxes;
+            alignas(32) float dist[kWidth];
+            unsigned mask = P::test(n, box, dist);
+            if (mask) {
+                // Every hit child onto the stack by insertion, farthest deepest; the
+                // nearest is popped at once (traverse's three-or-more case).
+                const uint32_t base = sp;
+                for (; mask; mask &= mask - 1) {
+                    const int i = __builtin_ctz(mask);
+                    const Entry e{n.child[i], n.count[i], dist[i]};
+                    uint32_t k = sp++;
+                    while (k > base && stack[k - 1].t < e.t) {
+                        stack[k] = stack[k - 1];
+                        --k;
+                    }
+                    stack[k] = e;
+                }
+                const Entry& e = stack[--sp];
+                ref = e.ref;
+                count = e.count;
+                continue;
+            }
+        }
+        for (;;) {
+            if (sp == 0) {
+                if constexpr (Count) stats.nodes_visited += boxes;
+                return best;
+            }
+            const Entry& e = stack[--sp];
+            if (e.t <= t_far) {
+                ref = e.ref;
+                count = e.count;
+                break;
+            }
+        }
+    }
+}
+
+/// Any hit of the two-level BVH: the top tree walked as occlude walks a flat one
+/// (nearest hit child first, P::push for the rest), each placement's bottom tree by
+/// occlude.
+template <class P, TriangleTest Test, bool Count, bool Masked>
+bool occlude_top(const InstancedBase& s, const Ray& ray, TraceStats& stats) {
+    const typename P::Node* nodes = node_array<typename P::Node>(s.top_);
+    if (!nodes) return false;
+    uint64_t boxes = 0;
+    const auto finish = [&](bool hit) {
+        if constexpr (Count) stats.nodes_visited += boxes;
+        return hit;
+    };
+    const Planes pl(ray);
+    const typename P::Box box(pl, ray.t_min, ray.t_max);
+    constexpr uint32_t kEntries = (kWidth - 1) * kStackSize + kWidth;
+    alignas(32) uint32_t stack_ref[kEntries], stack_count[kEntries];
+    uint32_t sp = 0, ref = 0, count = 0;
+    for (;;) {
+        if (ref & WideNode::kLeaf) {
+            const Placement* p = s.placements_.data() + (ref & ~WideNode::kLeaf);
+            for (const Placement* end = p + count; p != end; ++p) {
+                const Ray local = p->inst == kInvalidId ? ray : object_ray(p->world_to_object, ray, ray.t_max);
+                const WideBvh& w = *s.bottom_wide_[p->bottom];
+                bool hit;
+                if constexpr (Masked)
+                    hit = occlude<P, Test, Count, true, true>(w, local, stats,
+                                                              FilterArgs{&ray, p->inst, s.geom_base_[p->bottom]});
+                else
+                    hit = occlude<P, Test, Count, true>(w, local, stats);
+                if (hit) return finish(true);
+            }
+        } else {
+            const auto& n = nodes[ref];
+            if constexpr (Count) ++boxes;
+            alignas(32) float dist[kWidth];
+            unsigned mask = P::test(n, box, dist);
+            if (mask) {
+                const int i = P::nearest(dist, mask);
+                ref = n.child[i];
+                count = n.count[i];
+                mask &= ~(1u << i);
+                sp += P::push(n, mask, stack_ref + sp, stack_count + sp);
+                continue;
+            }
+        }
+        if (sp == 0) return finish(false);
+        --sp;
+        ref = stack_ref[sp];
+        count = stack_count[sp];
+    }
+}
+
+/// The two-level accelerator for one ISA, triangle test and masking; the flat kernels'
+/// counterpart (Kernel, MaskedKernel).
+template <class P, TriangleTest Test, bool Masked>
+class InstancedKernel final : public InstancedBase {
+public:
+    bool intersect(const Ray& ray, Hit& hit, TraceStats& stats) const override {
+        ++stats.rays;
+        const TopClosest c = stats.counting ? traverse_top<P, Test, true, Masked>(*this, ray, stats)
+                                            : traverse_top<P, Test, false, Masked>(*this, ray, stats);
+        if (!c.at) return false;
+        finish(*c.at, c.c.at, ray, c.c.t, c.c.u, c.c.v, hit);
+        return true;
+    }
+    bool occluded(const Ray& ray, TraceStats& stats) const override {
+        ++stats.shadow_rays;
+        return stats.counting ? occlude_top<P, Test, true, Masked>(*this, ray, stats)
+                              : occlude_top<P, Test, false, Masked>(*this, ray, stats);
+    }
+};
+
+template <class P>
+std::unique_ptr<InstancedBase> make_instanced(TriangleTest test, bool masked) {
+    if (masked) {
+        if (test == TriangleTest::Watertight) return std::make_unique<InstancedKernel<P, TriangleTest::Watertight, true>>();
+        return std::make_unique<InstancedKernel<P, TriangleTest::Fast, true>>();
+    }
+    if (test == TriangleTest::Watertight) return std::make_unique<InstancedKernel<P, TriangleTest::Watertight, false>>();
+    return std::make_unique<InstancedKernel<P, TriangleTest::Fast, false>>();
+}
 
 template <class P>
 std::unique_ptr<BvhBase> make_kernel(TriangleTest test, bool masked) {

@@ -19,4 +19,7 @@ namespace accel::bvh {
 std::unique_ptr<BvhBase> make_kernel_avx2(TriangleTest test, bool quantized, bool masked) {
     return quantized ? avx2::make_kernel<avx2::QNode8>(test, masked) : avx2::make_kernel<avx2::Node8>(test, masked);
 }
+std::unique_ptr<InstancedBase> make_instanced_avx2(TriangleTest test, bool quantized, bool masked) {
+    return quantized ? avx2::make_instanced<avx2::QNode8>(test, masked) : avx2::make_instanced<avx2::Node8>(test, masked);
+}
 }  // namespace accel::bvh

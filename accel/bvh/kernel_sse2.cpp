@@ -83,4 +83,7 @@ namespace accel::bvh {
 std::unique_ptr<BvhBase> make_kernel_sse2(TriangleTest test, bool quantized, bool masked) {
     return quantized ? sse2::make_kernel<sse2::Sse2Q>(test, masked) : sse2::make_kernel<sse2::Sse2>(test, masked);
 }
+std::unique_ptr<InstancedBase> make_instanced_sse2(TriangleTest test, bool quantized, bool masked) {
+    return quantized ? sse2::make_instanced<sse2::Sse2Q>(test, masked) : sse2::make_instanced<sse2::Sse2>(test, masked);
+}
 }  // namespace accel::bvh

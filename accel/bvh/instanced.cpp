@@ -1,0 +1,187 @@
+// The two-level BVH's build (instanced.h): bottom trees by the flat build, the top tree
+// by the same binned SAH over the placements' world boxes, collapsed into 8-wide nodes.
+#include "accel/bvh/instanced.h"
+
+#include <tbb/parallel_for.h>
+#include <tbb/task_arena.h>
+
+#include <algorithm>
+#include <chrono>
+
+#include "accel/bvh/bvh.h"
+#include "accel/bvh/dispatch.h"
+#include "accel/primitive.h"
+
+namespace accel::bvh {
+namespace {
+
+/// Collapses the top level's binary tree into 8-wide nodes, greedily: a wide node takes
+/// its binary node's two children and opens the largest-area interior one until eight
+/// lanes are filled (Wald, Benthin, Boulos 2008, "Getting Rid of Packets"; the flat
+/// trees use the SAH-optimal collapse of Ylitie et al. 2017, wide.cpp, whose leaves are
+/// triangle blocks). Leaf lanes: kLeaf | first placement (leaf order), count = placements.
+class TopCollapse {
+public:
+    TopCollapse(const std::vector<Node>& nodes, TraversalVector<WideNode>& out) : nodes_(nodes), out_(out) {}
+
+    void run() {
+        out_.reserve(nodes_.size() / 4 + 1);
+        make(0);
+    }
+
+private:
+    /// Writes the wide node for binary node n (as if interior; a leaf root gets one lane).
+    uint32_t make(uint32_t n) {
+        uint32_t lanes[kWidth];
+        int k = 0;
+        if (nodes_[n].is_leaf()) {
+            lanes[k++] = n;
+        } else {
+            lanes[k++] = nodes_[n].offset;
+            lanes[k++] = nodes_[n].offset + 1;
+            while (k < kWidth) {
+                int best = -1;
+                float area = -1.0f;
+                for (int i = 0; i < k; ++i)
+                    if (!nodes_[lanes[i]].is_leaf() && nodes_[lanes[i]].bounds().surface_area() > area)
+                        best = i, area = nodes_[lanes[i]].bounds().surface_area();
+                if (best < 0) break;
+                const uint32_t c = nodes_[lanes[best]].offset;
+                lanes[best] = c;
+                lanes[k++] = c + 1;
+            }
+        }
+        const uint32_t self = uint32_t(out_.size());
+        out_.emplace_back();
+        for (int i = 0; i < kWidth; ++i) {
+            WideNode& w = out_[self];
+            if (i >= k) {
+                for (int a = 0; a < 3; ++a) w.b[a][i] = kInfinity, w.b[a + 3][i] = -kInfinity;
+                w.child[i] = WideNode::kEmpty;
+                w.count[i] = 0;
+                continue;
+            }
+            const Node& b = nodes_[lanes[i]];
+            for (int r = 0; r < 6; ++r) w.b[r][i] = b.b[r];
+            if (b.is_leaf()) {
+                w.child[i] = WideNode::kLeaf | b.offset;
+                w.count[i] = b.count();
+            } else {
+                const uint32_t c = make(lanes[i]);  // may grow out_: index again
+                out_[self].child[i] = c;
+                out_[self].count[i] = 0;
+            }
+        }
+        return self;
+    }
+
+    const std::vector<Node>& nodes_;
+    TraversalVector<WideNode>& out_;
+};
+
+}  // namespace
+
+InstancedBase::InstancedBase() = default;
+InstancedBase::~InstancedBase() = default;
+const BuildInfo& InstancedBase::info() const { return info_; }
+Bounds3f InstancedBase::bounds() const { return bounds_; }
+
+void InstancedBase::finish(const Placement& p, BlockLane at, const Ray& ray, float t, float u, float v, Hit& hit) const {
+    bottoms_[p.bottom]->finish(at, ray, t, u, v, hit);
+    hit.geom_id += geom_base_[p.bottom];
+    hit.inst_id = p.inst;
+    if (p.inst != kInvalidId) hit.ng = to_world_normal(p.world_to_object, hit.ng);
+}
+
+bool InstancedBase::build(std::span<const GeometryView> geometry, const AccelOptions& opt,
+                          const InstanceSet& instances, Isa isa, bool quantized) {
+    const auto start = std::chrono::steady_clock::now();
+    for (const GeometryView& g : geometry) masked_ |= g.masked();
+    bool compressed = true;
+    // Bottom trees: each prototype's views (its geometry ids from 0), then the
+    // world-space views, with the prototypes' emptied so that ids stay the caller's.
+    const auto bottom = [&](std::span<const GeometryView> views, uint32_t base) {
+        std::unique_ptr<BvhBase> b = make_kernel(isa, opt.triangle, quantized, masked_);
+        compressed &= b->build(views, opt, isa_name(isa), quantized);
+        bottom_wide_.push_back(&b->wide_);
+        geom_base_.push_back(base);
+        info_.primitives += b->info_.primitives;
+        info_.dropped += b->info_.dropped;
+        info_.nodes += b->info_.nodes;
+        info_.leaves += b->info_.leaves;
+        info_.depth = std::max(info_.depth, b->info_.depth);
+        info_.bytes += b->info_.bytes;
+        bottoms_.push_back(std::move(b));
+    };
+    std::vector<GeometryView> world(geometry.begin(), geometry.end());
+    for (const PrototypeView& p : instances.prototypes) {
+        bottom(geometry.subspan(p.first_geom, p.num_geoms), p.first_geom);
+        for (uint32_t g = 0; g < p.num_geoms; ++g) world[p.first_geom + g].num_prims = 0;
+    }
+    bool any_world = false;
+    for (const GeometryView& g : world) any_world |= g.num_prims > 0;
+    if (any_world) bottom(world, 0);
+
+    // Placements: every instance whose prototype has something to hit, and the world.
+    const uint32_t world_bottom = any_world ? uint32_t(bottoms_.size() - 1) : kInvalidId;
+    std::vector<Bounds3f> bottom_box(bottoms_.size());
+    for (size_t b = 0; b < bottoms_.size(); ++b) bottom_box[b] = bottoms_[b]->bounds();
+    std::vector<uint32_t> kept;  // instance indices (kInvalidId: the world)
+    kept.reserve(instances.instances.size() + 1);
+    for (uint32_t i = 0; i < instances.instances.size(); ++i) {
+        const uint32_t proto = instances.instances[i].prototype;
+        info_.instanced_primitives += bottoms_[proto]->info_.primitives;
+        if (!bottom_box[proto].empty()) kept.push_back(i);
+    }
+    if (world_bottom != kInvalidId) kept.push_back(kInvalidId);
+    const auto box_of = [&](uint32_t k) {
+        const uint32_t i = kept[k];
+        if (i == kInvalidId) return bottom_box[world_bottom];
+        const InstanceView& iv = instances.instances[i];
+        return iv.object_to_world.bounds(bottom_box[iv.prototype]);
+    };
+    // Leaves of one placement: a leaf of several costs one bottom traversal each anyway,
+    // and the top node test is what culls them.
+    BinaryTree tree = build_boxes(uint32_t(kept.size()), box_of, BvhSplit::Sah, 1, opt.build_threads);
+    tbb::task_arena arena(opt.build_threads > 0 ? opt.build_threads : tbb::task_arena::automatic);
+    arena.execute([&] {
+        placements_.resize(tree.order.size());
+        tbb::parallel_for(tbb::blocked_range<size_t>(0, tree.order.size(), 4096), [&](const tbb::blocked_range<size_t>& r) {
+            for (size_t k = r.begin(); k < r.end(); ++k) {
+                const uint32_t i = kept[tree.order[k].prim];
+                Placement& p = placements_[k];
+                if (i == kInvalidId) {
+                    p = {Affine3f::identity(), world_bottom, kInvalidId};
+                } else {
+                    const InstanceView& iv = instances.instances[i];
+                    p = {iv.object_to_world.inverse(), iv.prototype, i};
+                }
+            }
+        });
+        for (uint32_t k = 0; k < kept.size(); ++k) bounds_.extend(box_of(k));
+        if (!tree.nodes.empty()) {
+            TopCollapse(tree.nodes, top_.nodes).run();
+            const float* lo = &tree.nodes[0].b[0];
+            std::copy(lo, lo + 6, top_.root);
+            if (quantized) compressed &= quantize(top_);
+        }
+    });
+    const TreeFacts f = tree_facts(tree.nodes);
+    info_.instances = instances.instances.size();
+    info_.nodes += tree.nodes.size();
+    info_.leaves += f.leaves;
+    info_.depth += f.depth;
+    info_.bytes += wide_bytes(top_) + placements_.capacity() * sizeof(Placement) +
+                   bottom_wide_.capacity() * sizeof(void*) + geom_base_.capacity() * sizeof(uint32_t);
+    const char* split = opt.split == BvhSplit::Sah ? "sah" : opt.split == BvhSplit::Sbvh ? "sbvh" : "midpoint";
+    const char* test = opt.triangle == TriangleTest::Watertight ? "watertight" : "fast";
+    info_.backend = std::string("custom(") + split + ", " + test + ", " + isa_name(isa) + ", " +
+                    layout_name(quantized && compressed ? NodeLayout::Quantized : NodeLayout::Float) +
+                    (masked_ ? ", masked" : "") + ", two-level)";
+    info_.counts_nodes = true;
+    info_.counts_prims = true;
+    info_.build_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    return compressed;
+}
+
+}  // namespace accel::bvh
