@@ -50,6 +50,7 @@
 #include <vector>
 
 #include "accel/accelerator.h"
+#include "accel/primitive.h"
 #include "accel/triangle.h"
 #include "renderer/interaction.h"
 #include "renderer/rng.h"
@@ -868,6 +869,146 @@ inline double thin_wall_thickness(const Placement& pl) {
     const double coord = std::abs(pl.offset) * accel::length(offset_dir()) + pl.scale;
     const double ulp = std::nextafter(float(coord), INFINITY) - float(coord);
     return std::max(1e-3, 64.0 * ulp / pl.scale);
+}
+
+/// The instanced sweep's placement: the unit mesh as an instance, p_world = s * R p + t,
+/// R a fixed rotation about a skew axis, t along offset_dir(). The float transform is
+/// what the backends get; targets and normals are computed from its float entries in
+/// double, so the exact surface is the float transform of the float mesh.
+inline accel::Affine3f instance_transform(const Placement& pl) {
+    const accel::Mat4f r = accel::Mat4f::rotate({0.3f, 1.0f, -0.6f}, 37.0f);
+    const Vec3d off = offset_dir() * pl.offset;
+    accel::Affine3f m;
+    for (int i = 0; i < 3; ++i) {
+        for (int j = 0; j < 3; ++j) m.m[i][j] = float(double(r.m[i][j]) * pl.scale);
+        m.m[i][3] = float(off[i]);
+    }
+    return m;
+}
+
+/// Leaks through an instance: the edge and vertex rays of measure()'s part (a), aimed
+/// in world space at the exact image of an object-space edge point or vertex, from the
+/// front of every face around it (the faces' world normals, by the inverse transpose).
+/// `acc` holds `unit` (the object-space mesh at scale 1, at the origin) as the only
+/// prototype, placed once by `m`. Inside an instance a watertight test stays watertight:
+/// both faces of an edge meet the one object-space ray the transform made.
+inline Counts measure_instance_leaks(const World& unit, const accel::Affine3f& m, const accel::Accelerator& acc,
+                                     uint64_t n, uint64_t seed) {
+    using namespace detail;
+    tbb::enumerable_thread_specific<Counts> local;
+    const auto apply = [&](const Vec3d& p) {
+        Vec3d r;
+        for (int i = 0; i < 3; ++i)
+            r[i] = double(m.m[i][0]) * p.x + double(m.m[i][1]) * p.y + double(m.m[i][2]) * p.z + double(m.m[i][3]);
+        return r;
+    };
+    // Normals by the inverse transpose, in double.
+    double inv[3][3];
+    {
+        const auto& a = m.m;
+        const double det = double(a[0][0]) * (double(a[1][1]) * a[2][2] - double(a[1][2]) * a[2][1]) -
+                           double(a[0][1]) * (double(a[1][0]) * a[2][2] - double(a[1][2]) * a[2][0]) +
+                           double(a[0][2]) * (double(a[1][0]) * a[2][1] - double(a[1][1]) * a[2][0]);
+        for (int i = 0; i < 3; ++i)
+            for (int j = 0; j < 3; ++j) {
+                const int i1 = (i + 1) % 3, i2 = (i + 2) % 3, j1 = (j + 1) % 3, j2 = (j + 2) % 3;
+                inv[j][i] = (double(a[i1][j1]) * a[i2][j2] - double(a[i1][j2]) * a[i2][j1]) / det;
+            }
+    }
+    const accel::Affine3f inverse = m.inverse();
+    double w_trans[3];  // the inverse's translation, -L^-1 t
+    for (int i = 0; i < 3; ++i)
+        w_trans[i] = -(inv[i][0] * double(m.m[0][3]) + inv[i][1] * double(m.m[1][3]) + inv[i][2] * double(m.m[2][3]));
+    const auto normal = [&](const Vec3d& nn) {
+        Vec3d r;
+        for (int i = 0; i < 3; ++i) r[i] = inv[0][i] * nn.x + inv[1][i] * nn.y + inv[2][i] * nn.z;
+        return r / accel::length(r);
+    };
+    double scale = 0;  // the largest row sum of |L|: bounds how far the transform stretches
+    for (int i = 0; i < 3; ++i)
+        scale = std::max(scale, std::fabs(double(m.m[i][0])) + std::fabs(double(m.m[i][1])) + std::fabs(double(m.m[i][2])));
+    const double L = 3.0 * unit.radius * scale;  // origins well outside the instance
+    if (unit.edges.empty() && unit.vertices.empty()) return {};
+    for_each_ray(local, n, seed, 0x1A57000000ull, [&](auto& c, accel::TraceStats& st, renderer::Rng& rng, uint64_t i) {
+        thread_local std::vector<Vec3d> normals;
+        Vec3d target, d(0.0);
+        const bool vertex = unit.edges.empty() || (!unit.vertices.empty() && (i & 1));
+        bool axis = false;
+        for (int attempt = 0; attempt < 16 && d == Vec3d(0.0); ++attempt) {
+            normals.clear();
+            if (vertex) {
+                const uint32_t vi = unit.vertices[rng.next_u32() % unit.vertices.size()];
+                target = apply(Vec3d(unit.pos[vi]));
+                for (uint32_t t : unit.fan[vi]) normals.push_back(normal(unit.unit_normal[t]));
+            } else {
+                const World::Edge& e = unit.edges[rng.next_u32() % unit.edges.size()];
+                const Vec3d a(unit.pos[e.a]), b(unit.pos[e.b]);
+                target = apply(a + (b - a) * rnd(rng));
+                normals = {normal(unit.unit_normal[e.t0]), normal(unit.unit_normal[e.t1])};
+            }
+            // World targets are not float points: no axis-parallel rays (ray_at keeps
+            // those for exact float targets).
+            d = front_direction(normals, rng, axis, false);
+        }
+        if (d == Vec3d(0.0)) return;
+        float t_at;
+        const accel::Ray ray = ray_at(target, d, L, t_at);
+        // The backend tests the ray carried into object space, whose origin and direction
+        // carry the transform's rounding: W org + w in float is within gamma(4) of
+        // sum |W_ij org_j| + |w_i| per component (Higham 2002, 3.1; pbrt-v4 6.8.6), and W
+        // itself is rounded (one more unit). The ray then passes that far (in object
+        // units) from the target, and where it meets a face whose normal it makes
+        // cos >= 0.02 with (front_direction), its t moves by at most that over
+        // 0.02 |d_o|: the slack beyond which a hit is no longer the target's.
+        double err = 0, dlen = 0;
+        for (int r = 0; r < 3; ++r) {
+            double mag = std::fabs(w_trans[r]), dmag = 0, dobj = 0;
+            for (int k = 0; k < 3; ++k) {
+                mag += std::fabs(inv[r][k] * ray.org[k]);
+                dmag += std::fabs(inv[r][k] * ray.dir[k]);
+                dobj += inv[r][k] * ray.dir[k];
+            }
+            err += (mag + dmag * t_at) * 5.0 * 0x1p-24 / (1.0 - 5.0 * 0x1p-24);
+            dlen += dobj * dobj;
+        }
+        const float slack = float(err / (0.02 * std::sqrt(dlen)));
+        accel::Hit h;
+        bool hit = acc.intersect(ray, h, st) && h.t <= t_at * (1.0f + 1e-3f) + slack;
+        if (!hit) {
+            // That displacement can carry a ray aimed near the mesh's silhouette past it
+            // (a target within rounding of a border the direction sees from behind):
+            // then the exact mesh misses the very ray the backend tested, and so may
+            // the backend. A leak is a miss of a ray the exact mesh hits in a triangle's
+            // interior: the object-space ray (to_object_ray with the inverse the
+            // backends use) against every triangle in double.
+            const accel::Ray o = accel::to_object_ray(inverse, ray, ray.t_max);
+            bool inside = false;
+            for (uint32_t t = 0; t < unit.num_tris && !inside; ++t)
+                if (!unit.degenerate[t]) {
+                    const RefHit r = ref_intersect(Vec3d(o.org), Vec3d(o.dir), unit.v(t, 0), unit.v(t, 1), unit.v(t, 2));
+                    inside = r.plane && r.margin > 1e-9 && r.t > 0 && r.t <= t_at * (1.0 + 1e-3) + slack;
+                }
+            hit = !inside;
+        }
+        ++c.leak_rays;
+        c.vertex_rays += vertex;
+        if (!hit) {
+            ++c.leaks;
+            c.vertex_leaks += vertex;
+            if (std::getenv("EXTREMES_DEBUG")) {
+                accel::Hit h2;
+                const bool any = acc.intersect(ray, h2, st);
+                double mind = 1e300, maxd = -1e300;
+                for (const Vec3d& nn : normals) mind = std::min(mind, -accel::dot(nn, d)), maxd = std::max(maxd, -accel::dot(nn, d));
+                std::fprintf(stderr, "instance leak %s vertex=%d hit=%d t=%.9g t_at=%g slack=%g cos=[%g, %g] prim=%u\n",
+                             unit.name.c_str(), int(vertex), int(any), any ? h2.t : -1.0f, t_at, slack, mind, maxd,
+                             any ? h2.prim_id : 0u);
+            }
+        }
+    });
+    Counts total;
+    for (const Counts& c : local) total.add(c);
+    return total;
 }
 
 /// Light leaking through a thin wall: a closed box wall of thickness `thickness` (x in

@@ -55,6 +55,27 @@ TEST(Leaks, WatertightNeverLeaksAtSharedEdgesAndVertices) {
         }
 }
 
+TEST(Leaks, WatertightNeverLeaksThroughInstances) {
+    // The mesh as the one prototype of a two-level scene, rotated, scaled and translated
+    // (extremes::instance_transform): the object-space ray meets both faces of an edge.
+    for (const UnitMesh& m : {make_icosphere(3), make_cube(8)})
+        for (const Placement& pl : std::vector<Placement>{{1e-3, 0}, {1e-3, 10}, {1, 1e4}, {1e3, 1e6}}) {
+            const World unit = place_mesh(m, Placement{1, 0});
+            const accel::GeometryView view = unit.view();
+            const accel::PrototypeView proto{0, 1};
+            const accel::InstanceView inst{0, instance_transform(pl)};
+            for (const char* backend : {"custom", "naive"}) {
+                accel::AccelOptions o;
+                o.triangle = accel::TriangleTest::Watertight;
+                auto acc = accel::create_accelerator(backend, std::span(&view, 1), o,
+                                                     accel::InstanceSet{std::span(&proto, 1), std::span(&inst, 1)});
+                const Counts c = measure_instance_leaks(unit, inst.object_to_world, *acc, 10000, 3);
+                EXPECT_GT(c.leak_rays, 9000u);
+                EXPECT_EQ(c.leaks, 0u) << m.name << " " << pl.label() << " " << backend;
+            }
+        }
+}
+
 // Placements where the error-bound offset once failed: far from the origin relative to
 // the mesh's size (offset/scale 1e4, and s = 1 at 1e6 on a 1/16 grid), and the extremes.
 const std::vector<Placement> kAcnePlacements = {{1e-6, 1e-2}, {1e-3, 0}, {1, 1e4}, {1, 1e6}, {1e7, 1e6}};
