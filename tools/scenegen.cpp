@@ -49,7 +49,14 @@ struct MeshData {
     std::vector<uint32_t> indices;
     std::vector<float> uvs;
     int material = 0;
-    uint64_t triangles() const { return indices.size() / 3; }
+    /// Further primitives of the same glTF mesh (other materials), placed with it: a
+    /// forest tree's leaves beside its trunk, so one placement is one instance.
+    std::vector<MeshData> parts;
+    uint64_t triangles() const {
+        uint64_t n = indices.size() / 3;
+        for (const MeshData& p : parts) n += p.triangles();
+        return n;
+    }
 };
 
 /// One instance's placement, as EXT_mesh_gpu_instancing stores it: translation, unit
@@ -170,8 +177,8 @@ inline std::string to_glb(const Document& doc) {
                   << ",\"componentType\":5126,\"count\":" << count << ",\"type\":\"" << type << "\"" << minmax << "}";
         return accessor_count++;
     };
-    for (size_t mi = 0; mi < doc.meshes.size(); ++mi) {
-        const MeshData& m = doc.meshes[mi];
+    // One primitive's accessors and its JSON object.
+    auto primitive = [&](const MeshData& m) {
         if (m.positions.empty() || m.indices.empty()) throw std::invalid_argument("empty mesh " + m.name);
         for (uint32_t i : m.indices)
             if (i >= m.positions.size()) throw std::invalid_argument("index out of range in " + m.name);
@@ -194,10 +201,17 @@ inline std::string to_glb(const Document& doc) {
                   << ",\"type\":\"SCALAR\"}";
         const int ia = accessor_count++;
         const int ua = m.uvs.empty() ? -1 : add_floats(m.uvs, m.positions.size(), "VEC2", 34962);
-        meshes << (mi ? "," : "") << "{\"name\":\"" << json_escape(m.name) << "\",\"primitives\":[{\"attributes\":{\"POSITION\":"
-               << pa;
-        if (ua >= 0) meshes << ",\"TEXCOORD_0\":" << ua;
-        meshes << "},\"indices\":" << ia << ",\"material\":" << m.material << ",\"mode\":4}]}";
+        std::ostringstream o;
+        o << "{\"attributes\":{\"POSITION\":" << pa;
+        if (ua >= 0) o << ",\"TEXCOORD_0\":" << ua;
+        o << "},\"indices\":" << ia << ",\"material\":" << m.material << ",\"mode\":4}";
+        return o.str();
+    };
+    for (size_t mi = 0; mi < doc.meshes.size(); ++mi) {
+        const MeshData& m = doc.meshes[mi];
+        meshes << (mi ? "," : "") << "{\"name\":\"" << json_escape(m.name) << "\",\"primitives\":[" << primitive(m);
+        for (const MeshData& p : m.parts) meshes << "," << primitive(p);
+        meshes << "]}";
     }
     // Instance sets: TRANSLATION, ROTATION, SCALE accessors, shared by the nodes using them.
     std::vector<int> set_accessor(doc.instance_sets.size());
@@ -688,11 +702,11 @@ inline Document generate(const std::string& kind, uint64_t triangles, uint64_t s
         doc.nodes.push_back({0});
         for (uint64_t k = 0; k < prototypes; ++k) {
             MeshData trunk, leaves;
-            trunk.name = "trunk" + std::to_string(k);
+            trunk.name = "tree" + std::to_string(k);
             leaves.name = "leaves" + std::to_string(k);
             tree(seed * 7919 + k, per_tree, trunk, leaves);
+            trunk.parts.push_back(std::move(leaves));
             doc.meshes.push_back(std::move(trunk));
-            doc.meshes.push_back(std::move(leaves));
         }
         // Placements, each a prototype at random: a turn about y, a scale of 0.8-1.2
         // (a little taller or squatter).
@@ -711,17 +725,14 @@ inline Document generate(const std::string& kind, uint64_t triangles, uint64_t s
         doc.camera.eye = {0.0f, 9.0f, half + 20.0f};
         doc.camera.target = {0.0f, 4.0f, half - 25.0f};
         doc.camera.yfov = 0.7f;
-        // The trunk and the leaves of a prototype share its placements' accessors.
+        // One node per tree prototype, its mesh the trunk and the leaves (two primitives).
         for (uint64_t k = 0; k < prototypes; ++k) {
             if (sets[k].empty()) continue;
             doc.instance_sets.push_back(std::move(sets[k]));
-            const int set = int(doc.instance_sets.size() - 1);
-            for (int part = 0; part < 2; ++part) {
-                Node nd;
-                nd.mesh = int(1 + 2 * k) + part;
-                nd.instances = set;
-                doc.nodes.push_back(nd);
-            }
+            Node nd;
+            nd.mesh = int(1 + k);
+            nd.instances = int(doc.instance_sets.size() - 1);
+            doc.nodes.push_back(nd);
         }
     } else {
         throw std::invalid_argument("unknown --kind '" + kind + "' (sphere, terrain, field, sliver, forest)");

@@ -30,13 +30,18 @@ TEST(Scenegen, EveryKindLoadsWithTheReportedTriangleCount) {
             scenegen::write_glb(path, doc);
             scenes::Scene scene = scenes::load_scene(path);
             std::filesystem::remove(path);
+            // What the file asks for, counted as the loader keeps it (instanced or not)...
+            EXPECT_EQ(scene.world_triangles() + scene.instanced_triangles(), doc.instanced_triangles()) << kind;
+            // ...and flattened.
+            scenes::flatten_instances(scene);
             EXPECT_EQ(scene.num_triangles(), doc.instanced_triangles()) << kind << " " << n;
             EXPECT_GE(scene.num_triangles(), n) << kind;
             // "At least N" is cheap to honour closely; the sphere's 12 n^2 steps are the coarsest.
             EXPECT_LE(scene.num_triangles(), n + n / 4 + 12) << kind;
-            // One mesh per node and placement: the loader keeps no instances yet.
+            // Flattened: one mesh per primitive and placement.
             uint64_t placed = 0;
-            for (const scenegen::Node& nd : doc.nodes) placed += doc.placements(nd);
+            for (const scenegen::Node& nd : doc.nodes)
+                placed += doc.placements(nd) * (1 + doc.meshes[size_t(nd.mesh)].parts.size());
             EXPECT_EQ(scene.meshes.size(), placed) << kind;
             for (const std::string& note : scene.notes)
                 EXPECT_TRUE(note.rfind("EXT_mesh_gpu_instancing: ", 0) == 0 ||
@@ -103,7 +108,8 @@ TEST(Scenegen, ForestScalesByInstancesNotBytes) {
     for (const auto& set : doc.instance_sets) placements += set.size();
     EXPECT_EQ(placements, 10'000'000u);
     // Every leaf card has uvs over the leaf texture, whose alpha cuts the leaf out.
-    const scenegen::MeshData& leaves = doc.meshes[2];
+    ASSERT_EQ(doc.meshes[1].parts.size(), 1u);  // a tree: its trunk, then its leaves
+    const scenegen::MeshData& leaves = doc.meshes[1].parts[0];
     ASSERT_EQ(leaves.material, 2);
     EXPECT_EQ(leaves.uvs.size(), 2 * leaves.positions.size());
     EXPECT_TRUE(doc.materials[2].mask);
