@@ -210,6 +210,7 @@ struct Options {
     bool quick = false, no_course = false, no_pin = false, verbose = false;
     std::vector<int> thread_counts, build_threads;
     std::string isa_arg = "auto", nodes_arg = "auto";
+    std::string instancing = "auto";
     double wait_for_cores = 0;
     // Derived.
     bool pin = true;
@@ -240,6 +241,10 @@ void add_options(CLI::App& app, Options& o) {
     app.add_option("--nodes", o.nodes_arg, "Node layout of custom backends that name none: auto (quantized from 4M primitives) | float | quantized "
                                            "(or per backend: custom:sah:quantized)")
         ->check(CLI::IsMember({"auto", "float", "quantized"}));
+    app.add_option("--instancing", o.instancing,
+                   "auto: instances go to the backends as the file places them (two levels); flatten: world-space "
+                   "copies, for the comparison")
+        ->check(CLI::IsMember({"auto", "flatten"}));
     app.add_flag("--quick", o.quick, "Smoke run: 5000 rays, 1 repeat, default scene only unless --scene");
     app.add_flag("--no-pin", o.no_pin, "Leave the timed threads unpinned (default: thread i of a timed arena runs on "
                                        "the i-th CPU this process may use)");
@@ -525,7 +530,8 @@ void collect_rows(const Study& s, const std::vector<Cell>& cells, Results& res) 
 /// measured during a busy spell.
 void run_study(const Options& o, const bench::MachineProbe& probe, const scenes::Scene& scene,
                const std::string& name, const Built& built, renderer::RayKind kind, Results& res) {
-    const uint64_t tris = scene.num_triangles();
+    // What the rays meet: instanced triangles count once per placement.
+    const uint64_t tris = scene.world_triangles() + scene.instanced_triangles();
     const accel::Accelerator& gen = *built.accels[std::min<size_t>(built.accels.size() - 1, tris <= 10000 ? 1 : 0)];
     renderer::RaySetOptions ro;
     ro.count = o.rays;
@@ -542,7 +548,19 @@ void run_study(const Options& o, const bench::MachineProbe& probe, const scenes:
 /// Every study of one scene (and the build study, with --build-threads).
 void run_scene(const Options& o, const bench::MachineProbe& probe, const std::string& path, Results& res) {
     scenes::Scene scene = tools::load_scene_or_exit(path, "accel_bench");
-    std::vector<renderer::BackendSpec> specs = backend_specs(o, scene.num_triangles());
+    if (o.instancing == "flatten") {
+        try {
+            scenes::flatten_instances(scene);
+        } catch (const scenes::SceneError& e) {
+            fail(e.what());
+        }
+    }
+    if (!scene.instances.empty())
+        std::printf("%s: %llu unique triangles, %zu instances placing %llu\n", path.c_str(),
+                    (unsigned long long)scene.num_triangles(), scene.instances.size(),
+                    (unsigned long long)scene.instanced_triangles());
+    std::vector<renderer::BackendSpec> specs =
+        backend_specs(o, scene.world_triangles() + scene.instanced_triangles());
     renderer::SceneGeometry geometry(scene);
     const tools::memory::Stage stage("building the BVHs");
     const uint64_t failures = tools::memory::failures();

@@ -7,6 +7,7 @@
 #include <cstdio>
 #include <fstream>
 #include <map>
+#include <optional>
 #include <sstream>
 
 #include "accel/bvh/bvh.h"
@@ -28,6 +29,7 @@ struct Options {
     size_t rays = 200000;
     uint64_t seed = 1;
     std::string isa_arg = "auto", nodes_arg = "auto";
+    std::string instancing = "auto";
 };
 
 void add_options(CLI::App& app, Options& o) {
@@ -46,6 +48,10 @@ void add_options(CLI::App& app, Options& o) {
         ->check(CLI::IsMember({"auto", "sse2", "avx2", "avx512"}));
     app.add_option("--nodes", o.nodes_arg, "Node layout of custom backends that name none: auto (quantized from 4M primitives) | float | quantized")
         ->check(CLI::IsMember({"auto", "float", "quantized"}));
+    app.add_option("--instancing", o.instancing,
+                   "auto: the backends checked trace the file's instances, the reference their flattened copy "
+                   "(hits compared in the copy's ids); flatten: everything traces the copy")
+        ->check(CLI::IsMember({"auto", "flatten"}));
     app.add_option("--dump", o.dump_path, "Write the disagreeing rays to FILE (replayable)");
     app.add_option("--replay", o.replay_path, "Trace the rays of FILE (from --dump) instead of generating rays")
         ->check(CLI::ExistingFile);
@@ -142,20 +148,76 @@ std::vector<renderer::RayKind> parse_kinds(const std::string& kinds_arg) {
     return kinds;
 }
 
+/// An instanced backend seen through the flattened copy's ids, so that its hits compare
+/// with the reference's on that copy (scenes::flatten_instances: world-space meshes first,
+/// in scene order, then each instance's prototype meshes, then the spheres). Only the
+/// ids change: t is the instanced backend's own, whose difference from the copy's is the
+/// transform's rounding (the object-space ray's origin is off by about 2^-24 (|W| |o| +
+/// |w|) per axis, and the copy's vertices by 2^-24 (|L| |p| + |t|)): far below the
+/// tolerances compare_backends allows an agreeing pair, and a hit/miss flip it causes lies
+/// within them of an edge (renderer/xcheck.h, "numerical").
+class FlatIds final : public accel::Accelerator {
+public:
+    FlatIds(std::unique_ptr<accel::Accelerator> inner, const scenes::Scene& scene) : inner_(std::move(inner)) {
+        const std::vector<int32_t> owner = scene.mesh_prototypes();
+        world_.assign(scene.meshes.size(), accel::kInvalidId);
+        uint32_t next = 0;
+        for (size_t m = 0; m < scene.meshes.size(); ++m)
+            if (owner[m] < 0) world_[m] = next++;
+        first_.reserve(scene.instances.size());
+        for (const scenes::Instance& i : scene.instances) {
+            first_.push_back(next);
+            next += scene.prototypes[i.prototype].num_meshes;
+        }
+        proto_first_.reserve(scene.prototypes.size());
+        for (const scenes::Prototype& p : scene.prototypes) proto_first_.push_back(p.first_mesh);
+        for (const scenes::Instance& i : scene.instances) inst_proto_.push_back(i.prototype);
+        spheres_ = uint32_t(scene.meshes.size());
+        flat_spheres_ = next;
+    }
+    bool intersect(const accel::Ray& ray, accel::Hit& hit, accel::TraceStats& stats) const override {
+        if (!inner_->intersect(ray, hit, stats)) return false;
+        if (hit.inst_id != accel::kInvalidId)
+            hit.geom_id = first_[hit.inst_id] + (hit.geom_id - proto_first_[inst_proto_[hit.inst_id]]);
+        else
+            hit.geom_id = hit.geom_id == spheres_ ? flat_spheres_ : world_[hit.geom_id];
+        hit.inst_id = accel::kInvalidId;
+        return true;
+    }
+    bool occluded(const accel::Ray& ray, accel::TraceStats& stats) const override {
+        return inner_->occluded(ray, stats);
+    }
+    const accel::BuildInfo& info() const override { return inner_->info(); }
+    accel::Bounds3f bounds() const override { return inner_->bounds(); }
+
+private:
+    std::unique_ptr<accel::Accelerator> inner_;
+    std::vector<uint32_t> world_, first_, proto_first_, inst_proto_;
+    uint32_t spheres_ = 0, flat_spheres_ = 0;
+};
+
 /// Every backend, built; the reference first.
 struct Built {
     std::unique_ptr<accel::Accelerator> ref;
     std::vector<std::unique_ptr<accel::Accelerator>> others;
 };
 
-Built build_all(const Backends& b, const renderer::SceneGeometry& geometry) {
+/// `instanced`: the scene whose instances the checked backends trace (`geometry` then
+/// being its flattened copy, which the reference traces); null when there is none.
+Built build_all(const Backends& b, const renderer::SceneGeometry& geometry, const scenes::Scene* instanced,
+                const renderer::SceneGeometry* instanced_geometry) {
     Built built;
     const tools::memory::Stage stage("building the BVHs");
     const uint64_t failures = tools::memory::failures();
     try {
         built.ref = renderer::build_accelerator(b.ref.backend, geometry, b.ref.options, false);
-        for (const auto& s : b.specs)
-            built.others.push_back(renderer::build_accelerator(s.backend, geometry, s.options, false));
+        for (const auto& s : b.specs) {
+            if (instanced)
+                built.others.push_back(std::make_unique<FlatIds>(
+                    renderer::build_accelerator(s.backend, *instanced_geometry, s.options, false), *instanced));
+            else
+                built.others.push_back(renderer::build_accelerator(s.backend, geometry, s.options, false));
+        }
     } catch (const accel::AccelError& e) {
         // A plugin reports its failed allocation as an error of its own.
         if (tools::memory::failures() != failures) tools::memory::out_of_memory();
@@ -257,14 +319,27 @@ int main(int argc, char** argv) try {
     Options o;
     add_options(app, o);
     tools::parse_or_exit(app, argc, argv, "xcheck");
-    const scenes::Scene scene = tools::load_scene_or_exit(o.scene_path, "xcheck");
+    scenes::Scene scene = tools::load_scene_or_exit(o.scene_path, "xcheck");
+    // Instances: the reference traces the flattened copy, the others the instances.
+    std::optional<scenes::Scene> instanced;
+    if (!scene.instances.empty()) {
+        if (o.instancing == "auto") instanced = scene;
+        try {
+            scenes::flatten_instances(scene);
+        } catch (const scenes::SceneError& e) {
+            fail(std::string(e.what()) + "; xcheck compares instances with their flattened copy");
+        }
+    }
     const uint64_t tris = scene.num_triangles();
     if (tris == 0 && scene.spheres.empty()) fail(o.scene_path + ": the scene has no geometry");
     const Backends b = choose_backends(o, tris <= 10000);
     const std::vector<renderer::RayKind> kinds = parse_kinds(o.kinds_arg);  // before the builds: fail fast
 
     const renderer::SceneGeometry geometry(scene);
-    const Built built = build_all(b, geometry);
+    std::optional<renderer::SceneGeometry> instanced_geometry;
+    if (instanced) instanced_geometry.emplace(*instanced);
+    const Built built = build_all(b, geometry, instanced ? &*instanced : nullptr,
+                                  instanced_geometry ? &*instanced_geometry : nullptr);
     tools::memory::set_stage("making the rays");
     const std::vector<renderer::RaySet> sets = make_sets(o, kinds, scene, *built.ref);
     tools::memory::set_stage("tracing the rays");
@@ -272,6 +347,11 @@ int main(int argc, char** argv) try {
     std::printf("scene %s: %llu triangles, %zu spheres; reference %s (%s)\n", o.scene_path.c_str(),
                 (unsigned long long)tris, scene.spheres.size(), b.ref.label.c_str(),
                 built.ref->info().backend.c_str());
+    if (instanced)
+        std::printf("instances: %zu placing %llu triangles of %llu unique; the reference traces the flattened "
+                    "copy, every other backend the instances\n",
+                    instanced->instances.size(), (unsigned long long)instanced->instanced_triangles(),
+                    (unsigned long long)instanced->num_triangles());
     std::vector<renderer::Disagreement> bad;
     const uint64_t total_real = compare_all(b, built, sets, geometry, bad);
     if (!o.replay_path.empty()) print_replayed(b, built, sets);
