@@ -64,13 +64,14 @@ std::unique_ptr<BvhBase> make_kernel(Isa isa, TriangleTest test, bool quantized,
     }
 }
 
-std::unique_ptr<InstancedBase> make_instanced(Isa isa, TriangleTest test, bool quantized, bool masked) {
+std::unique_ptr<InstancedBase> make_instanced(Isa isa, TriangleTest test, bool top_quantized, bool quantized,
+                                              bool masked) {
     isa = resolve_isa(isa);
     if (!cpu_has(isa)) throw AccelError(std::string("this CPU cannot run the ") + isa_name(isa) + " BVH kernel");
     switch (isa) {
-        case Isa::Avx2: return make_instanced_avx2(test, quantized, masked);
-        case Isa::Avx512: return make_instanced_avx512(test, quantized, masked);
-        default: return make_instanced_sse2(test, quantized, masked);
+        case Isa::Avx2: return make_instanced_avx2(test, top_quantized, quantized, masked);
+        case Isa::Avx512: return make_instanced_avx512(test, top_quantized, quantized, masked);
+        default: return make_instanced_sse2(test, top_quantized, quantized, masked);
     }
 }
 

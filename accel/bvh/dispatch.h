@@ -21,6 +21,7 @@ std::unique_ptr<BvhBase> make_kernel_avx512(TriangleTest test, bool quantized, b
 std::unique_ptr<BvhBase> make_kernel(Isa isa, TriangleTest test, bool quantized, bool masked = false);
 
 /// The two-level kernel for `isa` (instanced.h), as make_kernel.
-std::unique_ptr<InstancedBase> make_instanced(Isa isa, TriangleTest test, bool quantized, bool masked);
+std::unique_ptr<InstancedBase> make_instanced(Isa isa, TriangleTest test, bool top_quantized, bool quantized,
+                                              bool masked);
 
 }  // namespace accel::bvh

@@ -25,8 +25,12 @@ public:
     TopCollapse(const std::vector<Node>& nodes, TraversalVector<WideNode>& out) : nodes_(nodes), out_(out) {}
 
     void run() {
-        out_.reserve(nodes_.size() / 4 + 1);
+        // A full wide node takes seven binary interior nodes (n - 1 of them for n
+        // leaves, two binary nodes per leaf): about 2/14 of the binary nodes, more where
+        // lanes stay empty; whatever the guess, the array is cut to size after.
+        out_.reserve(nodes_.size() / 12 + 1);
         make(0);
+        out_.shrink_to_fit();
     }
 
 private:
@@ -94,7 +98,7 @@ void InstancedBase::finish(const Placement& p, BlockLane at, const Ray& ray, flo
 }
 
 bool InstancedBase::build(std::span<const GeometryView> geometry, const AccelOptions& opt,
-                          const InstanceSet& instances, Isa isa, bool quantized) {
+                          const InstanceSet& instances, Isa isa, bool top_quantized, bool quantized) {
     const auto start = std::chrono::steady_clock::now();
     for (const GeometryView& g : geometry) masked_ |= g.masked();
     bool compressed = true;
@@ -163,7 +167,7 @@ bool InstancedBase::build(std::span<const GeometryView> geometry, const AccelOpt
             TopCollapse(tree.nodes, top_.nodes).run();
             const float* lo = &tree.nodes[0].b[0];
             std::copy(lo, lo + 6, top_.root);
-            if (quantized) compressed &= quantize(top_);
+            if (top_quantized) compressed &= quantize(top_);
         }
     });
     const TreeFacts f = tree_facts(tree.nodes);
@@ -176,8 +180,8 @@ bool InstancedBase::build(std::span<const GeometryView> geometry, const AccelOpt
     const char* split = opt.split == BvhSplit::Sah ? "sah" : opt.split == BvhSplit::Sbvh ? "sbvh" : "midpoint";
     const char* test = opt.triangle == TriangleTest::Watertight ? "watertight" : "fast";
     info_.backend = std::string("custom(") + split + ", " + test + ", " + isa_name(isa) + ", " +
-                    layout_name(quantized && compressed ? NodeLayout::Quantized : NodeLayout::Float) +
-                    (masked_ ? ", masked" : "") + ", two-level)";
+                    layout_name(quantized ? NodeLayout::Quantized : NodeLayout::Float) + (masked_ ? ", masked" : "") +
+                    ", two-level, top " + layout_name(top_quantized ? NodeLayout::Quantized : NodeLayout::Float) + ")";
     info_.counts_nodes = true;
     info_.counts_prims = true;
     info_.build_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();

@@ -38,7 +38,7 @@ public:
     /// boxes. Returns false, as BvhBase::build, if `quantized` was asked for and some
     /// tree could not be compressed; the caller then builds again with float nodes.
     bool build(std::span<const GeometryView> geometry, const AccelOptions& opt, const InstanceSet& instances,
-               Isa isa, bool quantized);
+               Isa isa, bool top_quantized, bool quantized);
     /// The hit of placement `p` found at (t, u, v) in lane `at` of a block of its bottom
     /// tree: ids from the block (geometry ids made the caller's), the instance, and the
     /// normal carried to world space (to_world_normal, accel/primitive.h).
@@ -55,8 +55,10 @@ public:
 };
 
 /// The two-level kernel for one ISA (kernel.h), as make_kernel_* for flat scenes.
-std::unique_ptr<InstancedBase> make_instanced_sse2(TriangleTest test, bool quantized, bool masked);
-std::unique_ptr<InstancedBase> make_instanced_avx2(TriangleTest test, bool quantized, bool masked);
-std::unique_ptr<InstancedBase> make_instanced_avx512(TriangleTest test, bool quantized, bool masked);
+/// `top_quantized`: the top tree's nodes are QuantNodes; `quantized`: the bottom trees'.
+std::unique_ptr<InstancedBase> make_instanced_sse2(TriangleTest test, bool top_quantized, bool quantized, bool masked);
+std::unique_ptr<InstancedBase> make_instanced_avx2(TriangleTest test, bool top_quantized, bool quantized, bool masked);
+std::unique_ptr<InstancedBase> make_instanced_avx512(TriangleTest test, bool top_quantized, bool quantized,
+                                                     bool masked);
 
 }  // namespace accel::bvh

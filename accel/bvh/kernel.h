@@ -942,15 +942,15 @@ PT_INLINE inline Closest trace_bottom(const InstancedBase& s, const Placement& p
 /// (P::test, ordered, entries beyond the closest hit dropped on pop), and a leaf's
 /// placements each run the flat traversal (traverse) of their bottom tree, the segment
 /// shrinking across them. Counting: nodes of both levels, and the bottom's leaf lanes.
-template <class P, TriangleTest Test, bool Count, bool Masked>
+template <class PT, class P, TriangleTest Test, bool Count, bool Masked>
 TopClosest traverse_top(const InstancedBase& s, const Ray& ray, TraceStats& stats) {
-    const typename P::Node* nodes = node_array<typename P::Node>(s.top_);
+    const typename PT::Node* nodes = node_array<typename PT::Node>(s.top_);
     TopClosest best{{ray.t_max, 0.0f, 0.0f, {}}, nullptr};
     if (!nodes) return best;
     float t = ray.t_max;
     uint64_t boxes = 0;
     const Planes pl(ray);
-    typename P::Box box(pl, ray.t_min, t);
+    typename PT::Box box(pl, ray.t_min, t);
     float t_far = t * kFarScale;
     struct Entry {
         uint32_t ref, count;
@@ -971,7 +971,7 @@ TopClosest traverse_top(const InstancedBase& s, const Ray& ray, TraceStats& stat
             const auto& n = nodes[ref];
             if constexpr (Count) ++boxes;
             alignas(32) float dist[kWidth];
-            unsigned mask = P::test(n, box, dist);
+            unsigned mask = PT::test(n, box, dist);
             if (mask) {
                 // Every hit child onto the stack by insertion, farthest deepest; the
                 // nearest is popped at once (traverse's three-or-more case).
@@ -1010,9 +1010,9 @@ TopClosest traverse_top(const InstancedBase& s, const Ray& ray, TraceStats& stat
 /// Any hit of the two-level BVH: the top tree walked as occlude walks a flat one
 /// (nearest hit child first, P::push for the rest), each placement's bottom tree by
 /// occlude.
-template <class P, TriangleTest Test, bool Count, bool Masked>
+template <class PT, class P, TriangleTest Test, bool Count, bool Masked>
 bool occlude_top(const InstancedBase& s, const Ray& ray, TraceStats& stats) {
-    const typename P::Node* nodes = node_array<typename P::Node>(s.top_);
+    const typename PT::Node* nodes = node_array<typename PT::Node>(s.top_);
     if (!nodes) return false;
     uint64_t boxes = 0;
     const auto finish = [&](bool hit) {
@@ -1020,7 +1020,7 @@ bool occlude_top(const InstancedBase& s, const Ray& ray, TraceStats& stats) {
         return hit;
     };
     const Planes pl(ray);
-    const typename P::Box box(pl, ray.t_min, ray.t_max);
+    const typename PT::Box box(pl, ray.t_min, ray.t_max);
     constexpr uint32_t kEntries = (kWidth - 1) * kStackSize + kWidth;
     alignas(32) uint32_t stack_ref[kEntries], stack_count[kEntries];
     uint32_t sp = 0, ref = 0, count = 0;
@@ -1042,13 +1042,13 @@ bool occlude_top(const InstancedBase& s, const Ray& ray, TraceStats& stats) {
             const auto& n = nodes[ref];
             if constexpr (Count) ++boxes;
             alignas(32) float dist[kWidth];
-            unsigned mask = P::test(n, box, dist);
+            unsigned mask = PT::test(n, box, dist);
             if (mask) {
-                const int i = P::nearest(dist, mask);
+                const int i = PT::nearest(dist, mask);
                 ref = n.child[i];
                 count = n.count[i];
                 mask &= ~(1u << i);
-                sp += P::push(n, mask, stack_ref + sp, stack_count + sp);
+                sp += PT::push(n, mask, stack_ref + sp, stack_count + sp);
                 continue;
             }
         }
@@ -1060,33 +1060,35 @@ bool occlude_top(const InstancedBase& s, const Ray& ray, TraceStats& stats) {
 }
 
 /// The two-level accelerator for one ISA, triangle test and masking; the flat kernels'
-/// counterpart (Kernel, MaskedKernel).
-template <class P, TriangleTest Test, bool Masked>
+/// counterpart (Kernel, MaskedKernel). PT is the top tree's node policy, P the bottom
+/// trees': the top tree is most of a large instanced scene's memory and has its own
+/// layout (InstancedBase::build says when it is compressed).
+template <class PT, class P, TriangleTest Test, bool Masked>
 class InstancedKernel final : public InstancedBase {
 public:
     bool intersect(const Ray& ray, Hit& hit, TraceStats& stats) const override {
         ++stats.rays;
-        const TopClosest c = stats.counting ? traverse_top<P, Test, true, Masked>(*this, ray, stats)
-                                            : traverse_top<P, Test, false, Masked>(*this, ray, stats);
+        const TopClosest c = stats.counting ? traverse_top<PT, P, Test, true, Masked>(*this, ray, stats)
+                                            : traverse_top<PT, P, Test, false, Masked>(*this, ray, stats);
         if (!c.at) return false;
         finish(*c.at, c.c.at, ray, c.c.t, c.c.u, c.c.v, hit);
         return true;
     }
     bool occluded(const Ray& ray, TraceStats& stats) const override {
         ++stats.shadow_rays;
-        return stats.counting ? occlude_top<P, Test, true, Masked>(*this, ray, stats)
-                              : occlude_top<P, Test, false, Masked>(*this, ray, stats);
+        return stats.counting ? occlude_top<PT, P, Test, true, Masked>(*this, ray, stats)
+                              : occlude_top<PT, P, Test, false, Masked>(*this, ray, stats);
     }
 };
 
-template <class P>
+template <class PT, class P>
 std::unique_ptr<InstancedBase> make_instanced(TriangleTest test, bool masked) {
     if (masked) {
-        if (test == TriangleTest::Watertight) return std::make_unique<InstancedKernel<P, TriangleTest::Watertight, true>>();
-        return std::make_unique<InstancedKernel<P, TriangleTest::Fast, true>>();
+        if (test == TriangleTest::Watertight) return std::make_unique<InstancedKernel<PT, P, TriangleTest::Watertight, true>>();
+        return std::make_unique<InstancedKernel<PT, P, TriangleTest::Fast, true>>();
     }
-    if (test == TriangleTest::Watertight) return std::make_unique<InstancedKernel<P, TriangleTest::Watertight, false>>();
-    return std::make_unique<InstancedKernel<P, TriangleTest::Fast, false>>();
+    if (test == TriangleTest::Watertight) return std::make_unique<InstancedKernel<PT, P, TriangleTest::Watertight, false>>();
+    return std::make_unique<InstancedKernel<PT, P, TriangleTest::Fast, false>>();
 }
 
 template <class P>

@@ -19,7 +19,10 @@ namespace accel::bvh {
 std::unique_ptr<BvhBase> make_kernel_avx2(TriangleTest test, bool quantized, bool masked) {
     return quantized ? avx2::make_kernel<avx2::QNode8>(test, masked) : avx2::make_kernel<avx2::Node8>(test, masked);
 }
-std::unique_ptr<InstancedBase> make_instanced_avx2(TriangleTest test, bool quantized, bool masked) {
-    return quantized ? avx2::make_instanced<avx2::QNode8>(test, masked) : avx2::make_instanced<avx2::Node8>(test, masked);
+std::unique_ptr<InstancedBase> make_instanced_avx2(TriangleTest test, bool top_quantized, bool quantized,
+                                                   bool masked) {
+    if (top_quantized)
+        return quantized ? avx2::make_instanced<avx2::QNode8, avx2::QNode8>(test, masked) : avx2::make_instanced<avx2::QNode8, avx2::Node8>(test, masked);
+    return quantized ? avx2::make_instanced<avx2::Node8, avx2::QNode8>(test, masked) : avx2::make_instanced<avx2::Node8, avx2::Node8>(test, masked);
 }
 }  // namespace accel::bvh

@@ -21,7 +21,10 @@ namespace accel::bvh {
 std::unique_ptr<BvhBase> make_kernel_avx512(TriangleTest test, bool quantized, bool masked) {
     return quantized ? avx512::make_kernel<avx512::QNode8>(test, masked) : avx512::make_kernel<avx512::Node8>(test, masked);
 }
-std::unique_ptr<InstancedBase> make_instanced_avx512(TriangleTest test, bool quantized, bool masked) {
-    return quantized ? avx512::make_instanced<avx512::QNode8>(test, masked) : avx512::make_instanced<avx512::Node8>(test, masked);
+std::unique_ptr<InstancedBase> make_instanced_avx512(TriangleTest test, bool top_quantized, bool quantized,
+                                                   bool masked) {
+    if (top_quantized)
+        return quantized ? avx512::make_instanced<avx512::QNode8, avx512::QNode8>(test, masked) : avx512::make_instanced<avx512::QNode8, avx512::Node8>(test, masked);
+    return quantized ? avx512::make_instanced<avx512::Node8, avx512::QNode8>(test, masked) : avx512::make_instanced<avx512::Node8, avx512::Node8>(test, masked);
 }
 }  // namespace accel::bvh

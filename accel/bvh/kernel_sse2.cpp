@@ -83,7 +83,10 @@ namespace accel::bvh {
 std::unique_ptr<BvhBase> make_kernel_sse2(TriangleTest test, bool quantized, bool masked) {
     return quantized ? sse2::make_kernel<sse2::Sse2Q>(test, masked) : sse2::make_kernel<sse2::Sse2>(test, masked);
 }
-std::unique_ptr<InstancedBase> make_instanced_sse2(TriangleTest test, bool quantized, bool masked) {
-    return quantized ? sse2::make_instanced<sse2::Sse2Q>(test, masked) : sse2::make_instanced<sse2::Sse2>(test, masked);
+std::unique_ptr<InstancedBase> make_instanced_sse2(TriangleTest test, bool top_quantized, bool quantized,
+                                                   bool masked) {
+    if (top_quantized)
+        return quantized ? sse2::make_instanced<sse2::Sse2Q, sse2::Sse2Q>(test, masked) : sse2::make_instanced<sse2::Sse2Q, sse2::Sse2>(test, masked);
+    return quantized ? sse2::make_instanced<sse2::Sse2, sse2::Sse2Q>(test, masked) : sse2::make_instanced<sse2::Sse2, sse2::Sse2>(test, masked);
 }
 }  // namespace accel::bvh
