@@ -402,7 +402,7 @@ private:
     bool placed_more_than_once(int mesh) const {
         return mesh >= 0 && size_t(mesh) < placements_.size() && placements_[size_t(mesh)] > 1;
     }
-    uint32_t prototype(int mi);
+    uint32_t prototype(int mi, int ni);
     enum class Placed { Instance, Flattened, Dropped };
     Placed add_instance(int ni, const Mat4f& world);
     InstanceAttribute instance_attribute(int ai, const AttributeRule& rule, const std::string& user);
@@ -1417,7 +1417,7 @@ void Loader::add_gpu_instances(int ni, const Mat4f& world, const tinygltf::Value
 /// once (decode_primitive's cache, shared with flattened placements) into object-space
 /// meshes appended contiguously to Scene::meshes, with the materials, uvs and names a
 /// flattened copy gets. Counted once against max_elements however often it is placed.
-uint32_t Loader::prototype(int mi) {
+uint32_t Loader::prototype(int mi, int ni) {
     uint32_t& slot = prototypes_[size_t(mi)];
     if (slot != kUnbuilt) return slot;
     const tinygltf::Mesh& gm = m_.meshes[size_t(mi)];
@@ -1428,8 +1428,8 @@ uint32_t Loader::prototype(int mi) {
         if (d.skip || d.triangles.empty()) continue;
         elements_ += d.positions.size() + d.triangles.size() + d.normals.size() + d.uvs.size();
         if (elements_ > limits_.max_elements)
-            fail(mesh_desc(mi) + ": scene too large (more than " + std::to_string(limits_.max_elements) +
-                 " unique vertex/index elements)");
+            fail(node_desc(ni) + ": " + mesh_desc(mi) + ": scene too large (more than " +
+                 std::to_string(limits_.max_elements) + " unique vertex/index elements)");
         Mesh out;
         out.name = gm.name.empty() ? "mesh " + std::to_string(mi) : gm.name;
         if (gm.primitives.size() > 1) out.name += "/" + std::to_string(pi);
@@ -1478,7 +1478,7 @@ Loader::Placed Loader::add_instance(int ni, const Mat4f& world) {
         add_mesh_instance(ni, world);
         return Placed::Flattened;
     }
-    const uint32_t p = prototype(mi);
+    const uint32_t p = prototype(mi, ni);
     if (p == kEmpty) return Placed::Flattened;  // no triangles: nothing to place, as before
     const Affine3f x = Affine3f::from(world);
     if (!x.finite() || !x.inverse().finite()) {
