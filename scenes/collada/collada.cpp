@@ -387,6 +387,13 @@ private:
     // ---- scene graph ------------------------------------------------------------
     Mat4f local_transform(pugi::xml_node node, bool camera_only);
     void visit(pugi::xml_node node, const Mat4f& parent, uint32_t depth);
+    void count_placements(pugi::xml_node node, uint32_t depth);
+    void enter_node(pugi::xml_node node, uint32_t depth);
+    std::string placement_key(pugi::xml_node inst, pugi::xml_node geom);
+    uint32_t prototype(const LocalGeometry& g, const std::vector<std::pair<std::string_view, uint32_t>>& binds,
+                       pugi::xml_node inst, pugi::xml_node node);
+    uint32_t bound_material(const LocalGroup& grp, const LocalGeometry& g,
+                            const std::vector<std::pair<std::string_view, uint32_t>>& binds, pugi::xml_node node);
     void instance_geometry(pugi::xml_node inst, pugi::xml_node node, const Mat4f& world);
     void instance_camera(pugi::xml_node inst, pugi::xml_node node, const Mat4f& world);
     void instance_light(pugi::xml_node inst, pugi::xml_node node, const Mat4f& world);
@@ -410,6 +417,19 @@ private:
     uint64_t next_base_ = 0;
     uint32_t default_material_ = kNone;
     uint64_t triangles_ = 0, local_triangles_ = 0, node_visits_ = 0;
+    // Instancing: how often the scene places each (geometry, material binding)
+    // (count_placements), and the Prototype it became (kNone before, kEmpty for a geometry
+    // without triangles); prototype_bounds_: each Prototype's object-space box.
+    static constexpr uint32_t kEmpty = kNone - 1;
+    struct Reuse {
+        uint64_t placements = 0;
+        uint32_t prototype = kNone;
+    };
+    std::unordered_map<std::string, Reuse> reuse_;
+    std::vector<Bounds3f> prototype_bounds_;
+    uint64_t expected_instances_ = 0;
+    uint32_t instance_node_depth_ = 0;  // > 0 inside an <instance_node>'s subtree
+    uint64_t copied_spheres_ = 0, copied_lights_ = 0;
     std::unordered_set<std::string> note_set_;
     size_t dropped_notes_ = 0;
 };
@@ -751,12 +771,54 @@ Mat4f Loader::local_transform(pugi::xml_node node, bool camera_only) {
     return m;
 }
 
-void Loader::visit(pugi::xml_node node, const Mat4f& parent, uint32_t depth) {
+void Loader::enter_node(pugi::xml_node node, uint32_t depth) {
     if (depth > limits_.max_node_depth)
         fail(node, fmt::format("nodes nested deeper than {} (instance_node cycle?)",
                                limits_.max_node_depth));
     if (++node_visits_ > limits_.max_node_visits)
         fail(node, fmt::format("more than {} node instances", limits_.max_node_visits));
+}
+
+/// What identifies a prototype: the geometry and its material binding (symbol -> material
+/// of each <instance_material>, COLLADA 1.4.1 spec, <bind_material> and
+/// <instance_material>). One geometry bound to two sets of materials is two prototypes,
+/// since a Prototype's meshes carry their materials.
+std::string Loader::placement_key(pugi::xml_node inst, pugi::xml_node geom) {
+    std::string key;
+    auto put = [&](const void* p) { key.append(reinterpret_cast<const char*>(&p), sizeof p); };
+    put(geom.internal_object());
+    for (pugi::xml_node im :
+         inst.child("bind_material").child("technique_common").children("instance_material")) {
+        key += im.attribute("symbol").value();
+        key += '\0';
+        put(resolve(im, "target", "material").internal_object());
+    }
+    return key;
+}
+
+/// Pass 1 of the instancing: how often the scene places each (geometry, binding), through
+/// the same walk as visit (the same limits on depth and visits), so that visit knows at a
+/// geometry's first placement whether to flatten it (placed once: the scene is what it
+/// was before instancing) or to make it a prototype. COLLADA 1.4.1 spec, <instance_node>
+/// and <instance_geometry>: both instantiate a library element in the parent's frame.
+void Loader::count_placements(pugi::xml_node node, uint32_t depth) {
+    enter_node(node, depth);
+    for (pugi::xml_node c : node.children()) {
+        const std::string_view t = c.name();
+        if (t == "node") {
+            count_placements(c, depth + 1);
+        } else if (t == "instance_node") {
+            count_placements(resolve(c, "url", "node"), depth + 1);
+        } else if (t == "instance_geometry") {
+            Reuse& r = reuse_[placement_key(c, resolve(c, "url", "geometry"))];
+            if (++r.placements == 2) expected_instances_ += 2;
+            else if (r.placements > 2) ++expected_instances_;
+        }
+    }
+}
+
+void Loader::visit(pugi::xml_node node, const Mat4f& parent, uint32_t depth) {
+    enter_node(node, depth);
     bool camera_only = false;
     for (pugi::xml_node c : node.children()) {
         const std::string_view t = c.name();
@@ -773,8 +835,11 @@ void Loader::visit(pugi::xml_node node, const Mat4f& parent, uint32_t depth) {
         const std::string_view t = c.name();
         if (t == "node")
             visit(c, world, depth + 1);
-        else if (t == "instance_node")
+        else if (t == "instance_node") {
+            ++instance_node_depth_;
             visit(resolve(c, "url", "node"), world, depth + 1);
+            --instance_node_depth_;
+        }
         else if (t == "instance_geometry")
             instance_geometry(c, node, world);
         else if (t == "instance_camera")
@@ -796,7 +861,10 @@ void Loader::instance_geometry(pugi::xml_node inst, pugi::xml_node node, const M
         binds.emplace_back(im.attribute("symbol").value(),
                            material_index(resolve(im, "target", "material")));
 
+    Reuse& reuse = reuse_[placement_key(inst, geom)];
     if (g.is_sphere) {
+        // A Sphere has no object space in the scene model: a reused one is copied.
+        if (reuse.placements > 1) ++copied_spheres_;
         const double det = det3(world);
         if (!std::isfinite(det) || det == 0.0) fail(node, "sphere instance has a singular transform");
         const float scale = float(std::cbrt(std::fabs(det)));
@@ -817,25 +885,45 @@ void Loader::instance_geometry(pugi::xml_node inst, pugi::xml_node node, const M
         return;
     }
 
+    // Placed more than once: an Instance of the geometry's Prototype. A projective world
+    // matrix (a <matrix> whose bottom row is not 0 0 0 1) has no Affine3f, so that
+    // placement is flattened below, as before.
+    const bool affine = world.m[3][0] == 0.0f && world.m[3][1] == 0.0f && world.m[3][2] == 0.0f &&
+                        world.m[3][3] == 1.0f;
+    if (reuse.placements > 1 && affine) {
+        Reuse& r = reuse;
+        if (r.prototype == kNone) r.prototype = prototype(g, binds, inst, node);
+        if (r.prototype == kEmpty) return;  // no triangles: nothing to place, as before
+        const Affine3f x = Affine3f::from(world);
+        // No inverse, no instance: tracing one carries the ray into object space. A mirror
+        // (det < 0) is kept; the renderer flips the normal, flatten_instances the winding.
+        if (!x.finite() || !x.inverse().finite()) {
+            note(fmt::format("node '{}': singular or non-finite transform; its instance of geometry '{}' dropped",
+                             label(node), g.name));
+            return;
+        }
+        // As a flattened copy would be refused: every placed corner of the box is finite.
+        const Bounds3f& b = prototype_bounds_[r.prototype];
+        for (int c = 0; c < 8; ++c)
+            if (!accel::is_finite(
+                    x.point({c & 1 ? b.hi.x : b.lo.x, c & 2 ? b.hi.y : b.lo.y, c & 4 ? b.hi.z : b.lo.z})))
+                fail(node, "transformed vertex position is not finite");
+        if (scene_.instances.size() >= limits_.max_instances)
+            fail(inst, fmt::format("scene places more than {} instances", limits_.max_instances));
+        // One allocation of pass 1's count instead of a doubling vector's copies.
+        if (scene_.instances.empty())
+            scene_.instances.reserve(size_t(std::min(expected_instances_, limits_.max_instances)));
+        scene_.instances.push_back(Instance{r.prototype, x});
+        return;
+    }
+
     // Normals go through the inverse transpose; compute it once per instance.
     const Mat4f inv = world.inverse();
     const bool invertible = matrix_finite(inv);
     for (const LocalGroup& grp : g.groups) {
         if (grp.indices.empty()) continue;
         count_triangles(inst, grp.indices.size() / 3);
-        uint32_t mat = kNone;
-        for (const auto& [sym, idx] : binds)
-            if (sym == grp.symbol) {
-                mat = idx;
-                break;
-            }
-        if (mat == kNone) {
-            if (!grp.symbol.empty())
-                note(fmt::format("node '{}': material symbol '{}' of geometry '{}' is not bound; "
-                                 "using default grey",
-                                 label(node), clip(grp.symbol), g.name));
-            mat = default_material();
-        }
+        const uint32_t mat = bound_material(grp, g, binds, node);
         Mesh mesh;
         mesh.name = g.groups.size() > 1 ? fmt::format("{}/{}", label(node), clip(grp.symbol))
                                         : label(node);
@@ -873,6 +961,57 @@ void Loader::instance_geometry(pugi::xml_node inst, pugi::xml_node node, const M
         }
         scene_.meshes.push_back(std::move(mesh));
     }
+}
+
+/// The material `binds` gives a group's symbol, or the default grey (noted).
+uint32_t Loader::bound_material(const LocalGroup& grp, const LocalGeometry& g,
+                                const std::vector<std::pair<std::string_view, uint32_t>>& binds,
+                                pugi::xml_node node) {
+    for (const auto& [sym, idx] : binds)
+        if (sym == grp.symbol) return idx;
+    if (!grp.symbol.empty())
+        note(fmt::format("node '{}': material symbol '{}' of geometry '{}' is not bound; "
+                         "using default grey",
+                         label(node), clip(grp.symbol), g.name));
+    return default_material();
+}
+
+/// The Prototype of a geometry under one material binding, built at its first
+/// placement: one object-space mesh per material group, appended contiguously to
+/// Scene::meshes, named after the geometry (a flattened copy is named after its node).
+/// Its triangles count once against max_triangles however often it is placed.
+uint32_t Loader::prototype(const LocalGeometry& g, const std::vector<std::pair<std::string_view, uint32_t>>& binds,
+                           pugi::xml_node inst, pugi::xml_node node) {
+    const uint32_t first = uint32_t(scene_.meshes.size());
+    Bounds3f box;
+    for (const LocalGroup& grp : g.groups) {
+        if (grp.indices.empty()) continue;
+        count_triangles(inst, grp.indices.size() / 3);
+        Mesh mesh;
+        mesh.name = g.groups.size() > 1 ? fmt::format("{}/{}", g.name, clip(grp.symbol)) : g.name;
+        mesh.material = bound_material(grp, g, binds, node);
+        mesh.positions.reserve(grp.positions.size() + 1);
+        mesh.positions.assign(grp.positions.begin(), grp.positions.end());
+        for (const Vec3f& p : grp.positions) box.extend(p);
+        mesh.pad_positions();
+        mesh.indices = grp.indices;
+        // Unit normals, as a flattened copy under the identity gets them.
+        mesh.normals.reserve(grp.normals.size());
+        for (const Vec3f& n : grp.normals) {
+            const float len = length(n);
+            if (!(len > 0.0f) || !std::isfinite(len)) {
+                mesh.normals = {};
+                note(fmt::format("geometry '{}': zero-length normals; using geometric normals", g.name));
+                break;
+            }
+            mesh.normals.push_back(n / len);
+        }
+        scene_.meshes.push_back(std::move(mesh));
+    }
+    if (scene_.meshes.size() == first) return kEmpty;
+    scene_.prototypes.push_back(Prototype{g.name, first, uint32_t(scene_.meshes.size() - first)});
+    prototype_bounds_.push_back(box);
+    return uint32_t(scene_.prototypes.size() - 1);
 }
 
 void Loader::instance_camera(pugi::xml_node inst, pugi::xml_node node, const Mat4f& world) {
@@ -946,6 +1085,7 @@ void Loader::instance_camera(pugi::xml_node inst, pugi::xml_node node, const Mat
 
 void Loader::instance_light(pugi::xml_node inst, pugi::xml_node node, const Mat4f& world) {
     pugi::xml_node light = resolve(inst, "url", "light");
+    if (instance_node_depth_ > 0) ++copied_lights_;  // lights are not instanced
     // The CGL technique is the course's own description and wins over technique_common.
     pugi::xml_node kind = first_element(cgl_technique(light));
     if (!kind) kind = first_element(light.child("technique_common"));
@@ -1032,9 +1172,22 @@ Scene Loader::run() {
         vs = root.child("library_visual_scenes").child("visual_scene");
     if (!vs) throw SceneError(fmt::format("{}: empty scene: no <visual_scene>", name_));
 
+    for (pugi::xml_node n : vs.children("node")) count_placements(n, 1);
+    node_visits_ = 0;
     for (pugi::xml_node n : vs.children("node")) visit(n, Mat4f{}, 1);
+    if (!scene_.instances.empty())
+        note(fmt::format("instancing: {} instances of {} geometries placed more than once (by several "
+                         "<instance_geometry> or through <instance_node>), each stored once, in object space",
+                         scene_.instances.size(), scene_.prototypes.size()));
+    if (copied_spheres_)
+        note(fmt::format("{} placements of reused sphere geometries copied into world space (spheres are "
+                         "not instanced)",
+                         copied_spheres_));
+    if (copied_lights_)
+        note(fmt::format("{} lights under <instance_node> copied into world space (lights are not instanced)",
+                         copied_lights_));
 
-    if (scene_.meshes.empty() && scene_.spheres.empty())
+    if (scene_.world_triangles() + scene_.instanced_triangles() == 0 && scene_.spheres.empty())
         throw SceneError(fmt::format("{}: empty scene: <visual_scene id=\"{}\"> instances no "
                                      "triangles or spheres",
                                      name_, clip(vs.attribute("id").value())));

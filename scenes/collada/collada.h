@@ -13,12 +13,19 @@ namespace scenes {
 /// by its size; these bound what it can multiply (instance_node reuse, deep nesting),
 /// so a small hostile file cannot exhaust memory or the stack.
 struct ColladaLimits {
-    uint64_t max_triangles = uint64_t(1) << 26;  ///< after instancing, whole scene
-    uint32_t max_node_depth = 256;               ///< node nesting incl. instance_node
+    /// Unique triangles, whole scene: a geometry kept as a prototype counts once however
+    /// often it is placed; a flattened copy counts as its own.
+    uint64_t max_triangles = uint64_t(1) << 26;
+    uint32_t max_node_depth = 256;  ///< node nesting incl. instance_node
     uint64_t max_node_visits = uint64_t(1) << 18;
+    uint64_t max_instances = kMaxInstances;  ///< Scene::instances, counted apart from triangles
 };
 
 /// Loads a .dae file. Throws SceneError naming the file and the element on bad input.
+/// A <geometry> placed more than once with the same material binding (by several
+/// <instance_geometry>, or through an <instance_node> used more than once) becomes one
+/// Prototype in object space and one Instance per placement; one placed once is loaded in
+/// world space. Spheres, lights and cameras are always placed in world space.
 Scene load_collada(const std::string& path);
 
 /// Same, from memory (fuzzing, tests). `name` stands for the file in messages.

@@ -27,9 +27,9 @@ namespace {
 
 using gltf_detail::decode_texture;
 
-/// Upper bound on vertices + indices summed over all mesh instances. Instancing lets a
-/// small file describe a huge scene; past this it is treated as hostile, not as a scene.
-constexpr uint64_t kMaxSceneElements = uint64_t(1) << 28;
+// The bounds on unique geometry elements and on instances are GltfLimits (gltf.h):
+// instancing lets a small file describe a huge scene, so what it may make us build is
+// capped, unique geometry and placements apart.
 /// Accessors without a bufferView (all zeros, possibly patched by sparse) are not
 /// bounded by any buffer, so their count needs its own limit; real files use them only
 /// for small sparse patches.
@@ -336,10 +336,28 @@ struct DecodedPrimitive {
     uint32_t material = 0;
 };
 
+/// One EXT_mesh_gpu_instancing attribute, validated, read one instance at a time. A
+/// plain accessor (a bufferView, no sparse) is read in place: at 10^7 instances, copying
+/// the three attributes into floats first would take 400 MB beside the instances' own
+/// 520 MB. A sparse or bufferView-less accessor is expanded by read_attribute (its size
+/// is bounded by its bufferViews' bytes or by kMaxUnbackedCount).
+struct InstanceAttribute {
+    const unsigned char* data = nullptr;  // in place; null when `dense` holds the values
+    size_t stride = 0, component_bytes = 0, components = 0, count = 0;
+    int component_type = 0;
+    bool normalized = false;
+    std::vector<float> dense;
+    std::string what;  // "accessor N (SEMANTIC of node ...)", for messages
+    float get(size_t i, size_t c) const {
+        return data ? read_component(data + i * stride + c * component_bytes, component_type, normalized)
+                    : dense[i * components + c];
+    }
+};
+
 class Loader {
 public:
-    Loader(const std::string& name, const tinygltf::Model& model, Scene& scene)
-        : name_(name), m_(model), scene_(scene) {}
+    Loader(const std::string& name, const tinygltf::Model& model, Scene& scene, const GltfLimits& limits)
+        : name_(name), m_(model), scene_(scene), limits_(limits) {}
 
     void run();
 
@@ -377,6 +395,17 @@ private:
     void add_camera(int ni, const Mat4f& world);
     void add_mesh_instance(int ni, const Mat4f& world);
     void add_gpu_instances(int ni, const Mat4f& world, const tinygltf::Value& ext);
+    // Instancing (see count_placements).
+    void count_placements(const std::vector<int>& roots);
+    uint64_t ext_placements(const tinygltf::Value& ext) const;
+    uint64_t backed_count(double ai) const;
+    bool placed_more_than_once(int mesh) const {
+        return mesh >= 0 && size_t(mesh) < placements_.size() && placements_[size_t(mesh)] > 1;
+    }
+    uint32_t prototype(int mi, int ni);
+    enum class Placed { Instance, Flattened, Dropped };
+    Placed add_instance(int ni, const Mat4f& world);
+    InstanceAttribute instance_attribute(int ai, const AttributeRule& rule, const std::string& user);
     void decode_draco_primitive(const tinygltf::Primitive& p, const std::string& pdesc,
                                 const std::string& uv_semantic,
                                 gltf_detail::DracoPrimitive& out);
@@ -388,10 +417,14 @@ private:
         size_t stride;
     };
     ViewBytes buffer_view(int bv, const std::string& user) const;
+    const unsigned char* accessor_elements(const tinygltf::Accessor& a, const std::string& adesc, size_t elem_size,
+                                           size_t& stride) const;
     template <class Store>
     void visit_accessor(int ai, const std::string& user, size_t& count, size_t elem_size,
                         Store&& store);
     const tinygltf::Accessor& accessor(int ai, const std::string& user) const;
+    void check_attribute(const tinygltf::Accessor& a, int ai, const AttributeRule& rule,
+                         const std::string& user) const;
     std::vector<float> read_attribute(int ai, const AttributeRule& rule, const std::string& user);
     std::vector<uint32_t> read_indices(int ai, const std::string& user);
 
@@ -407,6 +440,7 @@ private:
     std::string name_;
     const tinygltf::Model& m_;
     Scene& scene_;
+    GltfLimits limits_;
 
     std::map<std::pair<int, int>, DecodedPrimitive> primitives_;
     std::map<int, uint32_t> materials_;  // glTF material (-1 = default) -> scene material
@@ -420,7 +454,16 @@ private:
     std::set<std::string> ignored_material_features_;
     uint64_t elements_ = 0;
     uint64_t decoded_elements_ = 0;
-    uint64_t instancing_nodes_ = 0, instance_copies_ = 0;  // EXT_mesh_gpu_instancing
+    // Instancing. placements_[mesh]: how often the traversed scene places each glTF mesh
+    // (pass 1); prototypes_[mesh]: its Prototype once built, kUnbuilt before, kEmpty when
+    // it has no triangles; prototype_bounds_: each Prototype's object-space box.
+    static constexpr uint32_t kUnbuilt = 0xFFFFFFFFu, kEmpty = 0xFFFFFFFEu;
+    std::vector<uint64_t> placements_;
+    std::vector<uint32_t> prototypes_;
+    std::vector<Bounds3f> prototype_bounds_;
+    uint64_t expected_instances_ = 0;  // pass 1's count, for one reserve
+    uint64_t instancing_nodes_ = 0;    // nodes that placed at least one instance
+    uint64_t ext_nodes_ = 0, ext_flattened_nodes_ = 0;  // EXT_mesh_gpu_instancing
     int cameras_seen_ = 0;
 };
 
@@ -518,6 +561,68 @@ Mat4f Loader::local_matrix(int ni) const {
     return t * rot * s;
 }
 
+/// Pass 1 of the instancing: how often the scene places each mesh, so that pass 2
+/// (traverse) knows at a mesh's first placement whether to flatten it into world space
+/// (placed once: the scene is what it was before instancing, bit for bit) or to make it a
+/// prototype (placed more than once: glTF 2.0 spec 3.5, "Nodes and Hierarchy": several
+/// nodes may reference one mesh; EXT_mesh_gpu_instancing places a node's mesh once per
+/// instance). Nothing here fails: a node reached twice, or a bad extension, is refused by
+/// traverse with its usual message; the counts only have to be right for a valid file.
+void Loader::count_placements(const std::vector<int>& roots) {
+    placements_.assign(m_.meshes.size(), 0);
+    prototypes_.assign(m_.meshes.size(), kUnbuilt);
+    std::vector<bool> seen(m_.nodes.size(), false);
+    std::vector<int> stack(roots.rbegin(), roots.rend());  // child indices checked by root_nodes
+    while (!stack.empty()) {
+        const int ni = stack.back();
+        stack.pop_back();
+        if (seen[size_t(ni)]) continue;
+        seen[size_t(ni)] = true;
+        const tinygltf::Node& n = m_.nodes[size_t(ni)];
+        if (n.mesh >= 0 && size_t(n.mesh) < m_.meshes.size()) {
+            const auto ext = n.extensions.find("EXT_mesh_gpu_instancing");
+            const uint64_t k = ext == n.extensions.end() ? 1 : ext_placements(ext->second);
+            uint64_t& p = placements_[size_t(n.mesh)];
+            p = std::min(p + k, uint64_t(1) << 62);  // saturating: every k is below 2^61
+        }
+        for (int c : n.children) stack.push_back(c);
+    }
+    for (uint64_t p : placements_)
+        if (p > 1) expected_instances_ += p;
+}
+
+/// The instances an EXT_mesh_gpu_instancing object places, as far as its accessors'
+/// bytes allow (the smallest of its attributes' counts); 1 when it names no usable
+/// accessor, which traverse then refuses.
+uint64_t Loader::ext_placements(const tinygltf::Value& ext) const {
+    if (!ext.IsObject() || !ext.Has("attributes") || !ext.Get("attributes").IsObject()) return 1;
+    const tinygltf::Value& attrs = ext.Get("attributes");
+    uint64_t k = std::numeric_limits<uint64_t>::max();
+    for (const char* sem : {"TRANSLATION", "ROTATION", "SCALE"})
+        if (attrs.Has(sem) && attrs.Get(sem).IsNumber())
+            k = std::min(k, backed_count(attrs.Get(sem).GetNumberAsDouble()));
+    return k == std::numeric_limits<uint64_t>::max() ? 1 : k;
+}
+
+/// An accessor's count, bounded by the bytes that back it (the range check of
+/// visit_accessor, without failing): a count the file claims but cannot hold does not
+/// reserve memory. Accessors without a bufferView are bounded by kMaxUnbackedCount.
+uint64_t Loader::backed_count(double ad) const {
+    if (!(ad >= 0.0) || ad != std::floor(ad) || ad >= double(m_.accessors.size())) return 0;
+    const tinygltf::Accessor& a = m_.accessors[size_t(ad)];
+    const size_t elem = size_t(type_components(a.type)) * size_t(component_size(a.componentType));
+    if (elem == 0) return 0;
+    if (a.bufferView < 0) return std::min<uint64_t>(a.count, kMaxUnbackedCount);
+    if (size_t(a.bufferView) >= m_.bufferViews.size()) return 0;
+    const tinygltf::BufferView& bv = m_.bufferViews[size_t(a.bufferView)];
+    if (bv.buffer < 0 || size_t(bv.buffer) >= m_.buffers.size()) return 0;
+    const size_t bytes = m_.buffers[size_t(bv.buffer)].data.size();
+    if (bv.byteOffset > bytes || bv.byteLength > bytes - bv.byteOffset) return 0;
+    const size_t stride = bv.byteStride ? bv.byteStride : elem;
+    if (stride < elem || a.byteOffset > bv.byteLength || elem > bv.byteLength - a.byteOffset) return 0;
+    return std::min<uint64_t>(a.count, (bv.byteLength - a.byteOffset - elem) / stride + 1);
+}
+
 void Loader::traverse(const std::vector<int>& roots) {
     // Iterative DFS: a hostile hierarchy can be deep enough to overflow a recursive walk.
     // Each node may be reached once; a second visit is a cycle or a node with two
@@ -544,10 +649,17 @@ void Loader::traverse(const std::vector<int>& roots) {
         const tinygltf::Node& n = m_.nodes[size_t(ni)];
         if (n.mesh != -1) {
             const auto inst = n.extensions.find("EXT_mesh_gpu_instancing");
-            if (inst != n.extensions.end())
+            if (inst != n.extensions.end()) {
                 add_gpu_instances(ni, world, inst->second);
-            else
+            } else if (placed_more_than_once(n.mesh)) {
+                const Placed p = add_instance(ni, world);
+                if (p == Placed::Instance) ++instancing_nodes_;
+                if (p == Placed::Dropped)
+                    note(node_desc(ni) + ": singular or non-finite transform; its instance of " + mesh_desc(n.mesh) +
+                         " dropped");
+            } else {
                 add_mesh_instance(ni, world);
+            }
         }
         if (n.camera != -1) add_camera(ni, world);
         add_light(ni, world);
@@ -670,6 +782,27 @@ const tinygltf::Accessor& Loader::accessor(int ai, const std::string& user) cons
     return m_.accessors[size_t(ai)];
 }
 
+/// The first element of an accessor with a bufferView, and the stride, once all of its
+/// `a.count` elements of `elem_size` bytes are known to fit in the bufferView.
+const unsigned char* Loader::accessor_elements(const tinygltf::Accessor& a, const std::string& adesc,
+                                               size_t elem_size, size_t& stride) const {
+    ViewBytes v = buffer_view(a.bufferView, adesc);
+    stride = v.stride ? v.stride : elem_size;
+    if (stride < elem_size)
+        fail("bufferView " + std::to_string(a.bufferView) + ": byteStride " + std::to_string(stride) +
+             " is smaller than an element of " + adesc);
+    const size_t count = a.count;
+    if (count > 0) {
+        if (a.byteOffset > v.size || elem_size > v.size - a.byteOffset ||
+            (count - 1) > (v.size - a.byteOffset - elem_size) / stride)
+            fail(adesc + ": " + std::to_string(count) + " elements (stride " + std::to_string(stride) +
+                 ", offset " + std::to_string(a.byteOffset) + ") do not fit in bufferView " +
+                 std::to_string(a.bufferView) + " of " + std::to_string(v.size) + " bytes");
+        return v.data + a.byteOffset;
+    }
+    return v.data;
+}
+
 /// Calls store(i, bytes) for every element in order, then again for each sparse
 /// substitution. All ranges are checked before the first byte is read.
 template <class Store>
@@ -679,20 +812,9 @@ void Loader::visit_accessor(int ai, const std::string& user, size_t& count, size
     const std::string adesc = "accessor " + std::to_string(ai);
     count = a.count;
     if (a.bufferView >= 0) {
-        ViewBytes v = buffer_view(a.bufferView, adesc);
-        size_t stride = v.stride ? v.stride : elem_size;
-        if (stride < elem_size)
-            fail("bufferView " + std::to_string(a.bufferView) + ": byteStride " +
-                 std::to_string(stride) + " is smaller than an element of " + adesc);
-        if (count > 0) {
-            if (a.byteOffset > v.size || elem_size > v.size - a.byteOffset ||
-                (count - 1) > (v.size - a.byteOffset - elem_size) / stride)
-                fail(adesc + ": " + std::to_string(count) + " elements (stride " +
-                     std::to_string(stride) + ", offset " + std::to_string(a.byteOffset) +
-                     ") do not fit in bufferView " + std::to_string(a.bufferView) + " of " +
-                     std::to_string(v.size) + " bytes");
-        }
-        for (size_t i = 0; i < count; ++i) store(i, v.data + a.byteOffset + i * stride);
+        size_t stride = 0;
+        const unsigned char* first = accessor_elements(a, adesc, elem_size, stride);
+        for (size_t i = 0; i < count; ++i) store(i, first + i * stride);
     } else {
         if (count > kMaxUnbackedCount)
             fail(adesc + ": count " + std::to_string(count) + " without a bufferView is too large");
@@ -726,8 +848,8 @@ void Loader::visit_accessor(int ai, const std::string& user, size_t& count, size
     }
 }
 
-std::vector<float> Loader::read_attribute(int ai, const AttributeRule& rule, const std::string& user) {
-    const tinygltf::Accessor& a = accessor(ai, user);
+void Loader::check_attribute(const tinygltf::Accessor& a, int ai, const AttributeRule& rule,
+                             const std::string& user) const {
     const std::string adesc = "accessor " + std::to_string(ai);
     if (a.type != rule.type)
         fail(adesc + " (" + rule.semantic + " of " + user + "): type " + type_name(a.type) +
@@ -738,6 +860,13 @@ std::vector<float> Loader::read_attribute(int ai, const AttributeRule& rule, con
              component_name(ct) + " not allowed");
     if (ct != TINYGLTF_COMPONENT_TYPE_FLOAT && rule.ints_must_be_normalized && !a.normalized)
         fail(adesc + " (" + rule.semantic + " of " + user + "): integer components must be normalized");
+}
+
+std::vector<float> Loader::read_attribute(int ai, const AttributeRule& rule, const std::string& user) {
+    const tinygltf::Accessor& a = accessor(ai, user);
+    const std::string adesc = "accessor " + std::to_string(ai);
+    check_attribute(a, ai, rule, user);
+    const int ct = a.componentType;
     const size_t nc = size_t(type_components(rule.type)), cs = size_t(component_size(ct));
     std::vector<float> out;
     size_t count = 0;
@@ -756,6 +885,25 @@ std::vector<float> Loader::read_attribute(int ai, const AttributeRule& rule, con
         }
     });
     return out;
+}
+
+InstanceAttribute Loader::instance_attribute(int ai, const AttributeRule& rule, const std::string& user) {
+    const tinygltf::Accessor& a = accessor(ai, user);
+    InstanceAttribute r;
+    r.what = "accessor " + std::to_string(ai) + " (" + rule.semantic + " of " + user + ")";
+    r.components = size_t(type_components(rule.type));
+    if (a.bufferView < 0 || a.sparse.isSparse) {
+        r.dense = read_attribute(ai, rule, user);
+        r.count = r.dense.size() / r.components;
+        return r;
+    }
+    check_attribute(a, ai, rule, user);
+    r.component_type = a.componentType;
+    r.normalized = a.normalized;
+    r.component_bytes = size_t(component_size(a.componentType));
+    r.data = accessor_elements(a, "accessor " + std::to_string(ai), r.components * r.component_bytes, r.stride);
+    r.count = a.count;
+    return r;
 }
 
 std::vector<uint32_t> Loader::read_indices(int ai, const std::string& user) {
@@ -1045,7 +1193,7 @@ void Loader::decode_draco_primitive(const tinygltf::Primitive& p, const std::str
     want("NORMAL", 3);
     want(uv_semantic, 2);
     ViewBytes v = buffer_view(bv.GetNumberAsInt(), edesc);
-    const uint64_t budget = kMaxSceneElements - std::min(kMaxSceneElements, decoded_elements_);
+    const uint64_t budget = limits_.max_elements - std::min(limits_.max_elements, decoded_elements_);
     std::string why = gltf_detail::decode_draco(v.data, v.size, wanted, budget, out);
     if (!why.empty())
         fail(edesc + " (bufferView " + std::to_string(bv.GetNumberAsInt()) + "): " + why);
@@ -1129,7 +1277,7 @@ const DecodedPrimitive& Loader::decode_primitive(int mi, int pi) {
     // Decoded primitives are cached, so they count against the budget on their own,
     // before any instance does.
     decoded_elements_ += nv;
-    if (decoded_elements_ > kMaxSceneElements) fail(pdesc + ": scene too large");
+    if (decoded_elements_ > limits_.max_elements) fail(pdesc + ": scene too large");
     d.positions.resize(nv);
     for (size_t i = 0; i < nv; ++i) d.positions[i] = {pos[i * 3], pos[i * 3 + 1], pos[i * 3 + 2]};
 
@@ -1177,7 +1325,7 @@ const DecodedPrimitive& Loader::decode_primitive(int mi, int pi) {
     }
     const size_t n = idx.size();
     decoded_elements_ += 3 * n;  // strips and fans triple their index count
-    if (decoded_elements_ > kMaxSceneElements) fail(pdesc + ": scene too large");
+    if (decoded_elements_ > limits_.max_elements) fail(pdesc + ": scene too large");
     if (mode == TINYGLTF_MODE_TRIANGLES) {
         if (n % 3 != 0)
             note(pdesc + ": " + std::to_string(n) + " vertices is not a multiple of 3; last " +
@@ -1200,18 +1348,19 @@ const DecodedPrimitive& Loader::decode_primitive(int mi, int pi) {
 }
 
 void Loader::add_gpu_instances(int ni, const Mat4f& world, const tinygltf::Value& ext) {
-    // EXT_mesh_gpu_instancing: the node's mesh once per instance, each placed by its own
-    // translation, rotation and scale (identity where an attribute is absent) inside the
-    // node's frame: world * T * R * S. The scene model holds world-space meshes, so each
-    // instance becomes its own copy, counted against kMaxSceneElements like any other.
+    // EXT_mesh_gpu_instancing (its README, "Extending Nodes"): the node's mesh once per
+    // instance, each placed by its own translation, rotation and scale (identity where an
+    // attribute is absent) inside the node's frame: world * T * R * S. When the scene
+    // places the mesh more than once (pass 1, count_placements) each becomes an Instance of
+    // the mesh's one Prototype; a lone instance is flattened into world space as before.
     const std::string desc = node_desc(ni) + ": EXT_mesh_gpu_instancing";
     if (!ext.IsObject() || !ext.Has("attributes") || !ext.Get("attributes").IsObject())
         fail(desc + " has no attributes object");
     const tinygltf::Value& attrs = ext.Get("attributes");
-    std::vector<float> t, r, sc;
+    InstanceAttribute t, r, sc;
     size_t count = 0;
     bool counted = false;
-    const std::pair<const AttributeRule*, std::vector<float>*> wanted[] = {
+    const std::pair<const AttributeRule*, InstanceAttribute*> wanted[] = {
         {&kInstanceTranslationRule, &t}, {&kInstanceRotationRule, &r}, {&kInstanceScaleRule, &sc}};
     for (const auto& [rule, out] : wanted) {
         if (!attrs.Has(rule->semantic)) continue;
@@ -1219,8 +1368,8 @@ void Loader::add_gpu_instances(int ni, const Mat4f& world, const tinygltf::Value
         const double ai = a.IsNumber() ? a.GetNumberAsDouble() : -1.0;
         if (!(ai >= 0.0) || ai != std::floor(ai) || ai >= double(m_.accessors.size()))
             fail(desc + ": " + rule->semantic + " is not an accessor index");
-        *out = read_attribute(int(ai), *rule, desc);
-        const size_t n = out->size() / size_t(type_components(rule->type));
+        *out = instance_attribute(int(ai), *rule, desc);
+        const size_t n = out->count;
         if (counted && n != count)
             fail(desc + ": " + rule->semantic + " has " + std::to_string(n) + " instances, " +
                  std::to_string(count) + " elsewhere (all attributes must have the same count)");
@@ -1228,16 +1377,128 @@ void Loader::add_gpu_instances(int ni, const Mat4f& world, const tinygltf::Value
         counted = true;
     }
     if (!counted) fail(desc + " names none of TRANSLATION, ROTATION, SCALE");
+    const tinygltf::Node& n = m_.nodes[size_t(ni)];
+    const bool instanced = placed_more_than_once(n.mesh);
+    // Read as read_attribute would have: every value finite, or the file is refused.
+    auto value = [&](const InstanceAttribute& a, size_t k, size_t c) {
+        const float v = a.get(k, c);
+        if (!std::isfinite(v)) fail(a.what + ": element " + std::to_string(k) + " is not finite");
+        return v;
+    };
+    uint64_t dropped = 0, first_dropped = 0, placed = 0;
     for (size_t k = 0; k < count; ++k) {
         Mat4f tm, rm, sm;
-        if (!t.empty()) tm = Mat4f::translate({t[3 * k], t[3 * k + 1], t[3 * k + 2]});
-        if (!r.empty() && !rotation_matrix(r[4 * k], r[4 * k + 1], r[4 * k + 2], r[4 * k + 3], rm))
+        if (t.count) tm = Mat4f::translate({value(t, k, 0), value(t, k, 1), value(t, k, 2)});
+        if (r.count && !rotation_matrix(value(r, k, 0), value(r, k, 1), value(r, k, 2), value(r, k, 3), rm))
             fail(desc + ": instance " + std::to_string(k) + " has a zero rotation quaternion");
-        if (!sc.empty()) sm = Mat4f::scale({sc[3 * k], sc[3 * k + 1], sc[3 * k + 2]});
-        add_mesh_instance(ni, world * tm * rm * sm);
+        if (sc.count) sm = Mat4f::scale({value(sc, k, 0), value(sc, k, 1), value(sc, k, 2)});
+        const Mat4f composed = world * tm * rm * sm;
+        if (!instanced) {
+            add_mesh_instance(ni, composed);
+            continue;
+        }
+        const Placed p = add_instance(ni, composed);
+        if (p == Placed::Instance) ++placed;
+        if (p == Placed::Dropped && dropped++ == 0) first_dropped = k;
     }
-    ++instancing_nodes_;
-    instance_copies_ += count;
+    if (dropped)
+        note(desc + ": " + std::to_string(dropped) + " of " + std::to_string(count) +
+             " instances have a singular or non-finite transform (the first is instance " +
+             std::to_string(first_dropped) + "); dropped");
+    if (placed) {
+        ++instancing_nodes_;
+        ++ext_nodes_;
+    } else if (!instanced && count > 0) {
+        ++ext_flattened_nodes_;
+    }
+}
+
+/// The Prototype of glTF mesh `mi`, built at its first placement: its primitives decoded
+/// once (decode_primitive's cache, shared with flattened placements) into object-space
+/// meshes appended contiguously to Scene::meshes, with the materials, uvs and names a
+/// flattened copy gets. Counted once against max_elements however often it is placed.
+uint32_t Loader::prototype(int mi, int ni) {
+    uint32_t& slot = prototypes_[size_t(mi)];
+    if (slot != kUnbuilt) return slot;
+    const tinygltf::Mesh& gm = m_.meshes[size_t(mi)];
+    const uint32_t first = uint32_t(scene_.meshes.size());
+    Bounds3f box;
+    for (size_t pi = 0; pi < gm.primitives.size(); ++pi) {
+        const DecodedPrimitive& d = decode_primitive(mi, int(pi));
+        if (d.skip || d.triangles.empty()) continue;
+        elements_ += d.positions.size() + d.triangles.size() + d.normals.size() + d.uvs.size();
+        if (elements_ > limits_.max_elements)
+            fail(node_desc(ni) + ": " + mesh_desc(mi) + ": scene too large (more than " +
+                 std::to_string(limits_.max_elements) + " unique vertex/index elements)");
+        Mesh out;
+        out.name = gm.name.empty() ? "mesh " + std::to_string(mi) : gm.name;
+        if (gm.primitives.size() > 1) out.name += "/" + std::to_string(pi);
+        out.material = d.material;
+        out.positions.reserve(d.positions.size() + 1);
+        out.positions = d.positions;  // read_attribute refused non-finite values
+        out.pad_positions();
+        out.indices = d.triangles;
+        // Unit normals, as a flattened copy under the identity gets them; a zero-length
+        // one drops the primitive's normals (the renderer then uses geometric normals).
+        out.normals.reserve(d.normals.size());
+        for (const Vec3f& nn : d.normals) {
+            const float len = length(nn);
+            if (!(len > 0.0f) || !std::isfinite(len)) {
+                out.normals.clear();
+                note(mesh_desc(mi) + " primitive " + std::to_string(pi) +
+                     " has zero-length normals; shading normals dropped");
+                break;
+            }
+            out.normals.push_back(nn / len);
+        }
+        out.uvs = d.uvs;
+        for (const Vec3f& p : d.positions) box.extend(p);
+        scene_.meshes.push_back(std::move(out));
+    }
+    if (scene_.meshes.size() == first) return slot = kEmpty;
+    slot = uint32_t(scene_.prototypes.size());
+    scene_.prototypes.push_back(
+        Prototype{gm.name.empty() ? "mesh " + std::to_string(mi) : gm.name, first, uint32_t(scene_.meshes.size() - first)});
+    prototype_bounds_.push_back(box);
+    return slot;
+}
+
+/// One placement of node `ni`'s mesh, which the scene places more than once, by the
+/// composed transform `world` (node hierarchy, and for EXT_mesh_gpu_instancing the
+/// instance's T * R * S): one Instance of the mesh's Prototype. Dropped when the transform
+/// is singular or not finite: such an instance is dropped (it has no inverse, which
+/// tracing an instance needs, and it would place only a degenerate copy). A transform
+/// that mirrors (det < 0) is kept: glTF 2.0 spec 3.7.4 makes the winding follow the
+/// determinant; the renderer flips the normal, flatten_instances the winding.
+Loader::Placed Loader::add_instance(int ni, const Mat4f& world) {
+    const int mi = m_.nodes[size_t(ni)].mesh;
+    // A projective bottom row (glTF 2.0 spec 5.25 wants matrices decomposable to TRS, but
+    // a file may lie) has no Affine3f: that placement is flattened as before.
+    if (world.m[3][0] != 0.0f || world.m[3][1] != 0.0f || world.m[3][2] != 0.0f || world.m[3][3] != 1.0f) {
+        add_mesh_instance(ni, world);
+        return Placed::Flattened;
+    }
+    const uint32_t p = prototype(mi, ni);
+    if (p == kEmpty) return Placed::Flattened;  // no triangles: nothing to place, as before
+    const Affine3f x = Affine3f::from(world);
+    if (!x.finite() || !x.inverse().finite()) {
+        return Placed::Dropped;
+    }
+    // As a flattened copy would be refused: every placed corner of the box must be finite.
+    const Bounds3f& b = prototype_bounds_[p];
+    for (int c = 0; c < 8; ++c)
+        if (!is_finite(x.point({c & 1 ? b.hi.x : b.lo.x, c & 2 ? b.hi.y : b.lo.y, c & 4 ? b.hi.z : b.lo.z})))
+            fail(node_desc(ni) + ": " + mesh_desc(mi) + " has non-finite world positions");
+    if (scene_.instances.size() >= limits_.max_instances)
+        fail(node_desc(ni) + ": scene too large (more than " + std::to_string(limits_.max_instances) +
+             " instances)");
+    // One allocation of the size pass 1 counted (bounded by the accessors' bytes and by
+    // the limit), instead of doubling: at 10^7 instances a doubling vector would copy and
+    // briefly hold 1.5 times the array's 520 MB.
+    if (scene_.instances.empty())
+        scene_.instances.reserve(size_t(std::min(expected_instances_, limits_.max_instances)));
+    scene_.instances.push_back(Instance{p, x});
+    return Placed::Instance;
 }
 
 void Loader::add_mesh_instance(int ni, const Mat4f& world) {
@@ -1258,9 +1519,9 @@ void Loader::add_mesh_instance(int ni, const Mat4f& world) {
         const DecodedPrimitive& d = decode_primitive(n.mesh, int(pi));
         if (d.skip) continue;
         elements_ += d.positions.size() + d.triangles.size() + d.normals.size() + d.uvs.size();
-        if (elements_ > kMaxSceneElements)
-            fail(node_desc(ni) + ": scene too large (more than " + std::to_string(kMaxSceneElements) +
-                 " vertex/index elements after instancing)");
+        if (elements_ > limits_.max_elements)
+            fail(node_desc(ni) + ": scene too large (more than " + std::to_string(limits_.max_elements) +
+                 " unique vertex/index elements)");
         Mesh out;
         out.name = gm.name.empty() ? "mesh " + std::to_string(n.mesh) : gm.name;
         if (gm.primitives.size() > 1) out.name += "/" + std::to_string(pi);
@@ -1314,12 +1575,23 @@ void Loader::run() {
     scene_.format = SceneFormat::Gltf;
     scene_.up = Vec3f{0.0f, 1.0f, 0.0f};
     check_extensions();
-    traverse(root_nodes());
+    const std::vector<int> roots = root_nodes();
+    count_placements(roots);
+    traverse(roots);
+    auto plural = [](uint64_t n, const char* one, const char* many) {
+        return std::to_string(n) + " " + (n == 1 ? one : many);
+    };
     if (instancing_nodes_)
-        note("EXT_mesh_gpu_instancing: " + std::to_string(instance_copies_) + " instances on " +
-             std::to_string(instancing_nodes_) + (instancing_nodes_ == 1 ? " node" : " nodes") +
-             ", each loaded as its own copy");
-    if (scene_.num_triangles() == 0) fail("the scene has no triangles to render");
+        note("instancing: " + plural(instancing_nodes_, "node places ", "nodes place ") +
+             plural(scene_.instances.size(), "instance", "instances") + " of " +
+             plural(scene_.prototypes.size(), "mesh", "meshes") +
+             (ext_nodes_ ? " (" + plural(ext_nodes_, "node", "nodes") + " by EXT_mesh_gpu_instancing)" : "") +
+             ", each mesh stored once, in object space");
+    if (ext_flattened_nodes_)
+        note("EXT_mesh_gpu_instancing: " + plural(ext_flattened_nodes_, "node places", "nodes place") +
+             " the only instance of its mesh; loaded in world space");
+    if (scene_.world_triangles() + scene_.instanced_triangles() == 0)
+        fail("the scene has no triangles to render");
 
     // Images nobody needed and that could not be read: say so, once each.
     for (size_t i = 0; i < m_.images.size(); ++i) {
@@ -1336,7 +1608,7 @@ void Loader::run() {
 }
 
 Scene load_impl(const unsigned char* data, size_t size, const std::string& name,
-                const std::string& base_dir, bool binary) {
+                const std::string& base_dir, bool binary, const GltfLimits& limits) {
     if (size > std::numeric_limits<uint32_t>::max()) throw SceneError(name + ": file larger than 4 GiB");
     uint32_t length = uint32_t(size);
     if (binary) {
@@ -1393,7 +1665,7 @@ Scene load_impl(const unsigned char* data, size_t size, const std::string& name,
         if (!line.empty() && line.find("image[") == std::string::npos &&
             line.find("File not found") == std::string::npos)
             scene.notes.push_back("tinygltf: " + one_line(line));
-    Loader(name, model, scene).run();
+    Loader(name, model, scene, limits).run();
     return scene;
 }
 
@@ -1415,13 +1687,18 @@ Scene load_gltf(const std::string& path) {
     std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return char(std::tolower(c)); });
     if (ext == ".glb" && !binary) binary = true;  // let the GLB check name the problem
     std::string base = std::filesystem::path(path).parent_path().string();
-    return load_impl(bytes.data(), bytes.size(), path, base, binary);
+    return load_impl(bytes.data(), bytes.size(), path, base, binary, GltfLimits{});
+}
+
+Scene load_gltf_memory(const void* data, size_t size, const std::string& name,
+                       const std::string& base_dir, bool binary, const GltfLimits& limits) {
+    static const unsigned char empty = 0;
+    return load_impl(size ? static_cast<const unsigned char*>(data) : &empty, size, name, base_dir, binary, limits);
 }
 
 Scene load_gltf_memory(const void* data, size_t size, const std::string& name,
                        const std::string& base_dir, bool binary) {
-    static const unsigned char empty = 0;
-    return load_impl(size ? static_cast<const unsigned char*>(data) : &empty, size, name, base_dir, binary);
+    return load_gltf_memory(data, size, name, base_dir, binary, GltfLimits{});
 }
 
 }  // namespace scenes

@@ -168,10 +168,148 @@ TEST(ColladaTransforms, InstanceNodeIsFollowedWithTheCallersTransform) {
     const std::string nodes =
         "<node id=\"a\"><translate>5 0 0</translate><instance_node url=\"#shared\"/></node>"
         "<node id=\"b\"><translate>-5 0 0</translate><instance_node url=\"#shared\"/></node>";
-    const Scene s = load(dae(lib, nodes));
+    Scene s = load(dae(lib, nodes));
+    // Used twice: one prototype, two instances (collada_memory_test's instancing section).
+    ASSERT_EQ(s.prototypes.size(), 1u);
+    ASSERT_EQ(s.instances.size(), 2u);
+    scenes::flatten_instances(s);
     ASSERT_EQ(s.meshes.size(), 2u);
     expect_near(s.meshes[0].positions[0], {5, 0, 1});
     expect_near(s.meshes[1].positions[0], {-5, 0, 1});
+}
+
+// ---------------------------------------------------------------------------------------
+// Instancing: a geometry placed more than once under one material binding is a prototype
+
+namespace {
+// Two materials in one library of each kind (material() writes a library per material).
+std::string two_materials() {
+    return "<library_effects><effect id=\"red-fx\"><profile_COMMON><technique sid=\"c\"><lambert><diffuse>"
+           "<color>1 0 0 1</color></diffuse></lambert></technique></profile_COMMON></effect>"
+           "<effect id=\"blue-fx\"><profile_COMMON><technique sid=\"c\"><lambert><diffuse>"
+           "<color>0 0 1 1</color></diffuse></lambert></technique></profile_COMMON></effect></library_effects>"
+           "<library_materials><material id=\"red\" name=\"red\"><instance_effect url=\"#red-fx\"/></material>"
+           "<material id=\"blue\" name=\"blue\"><instance_effect url=\"#blue-fx\"/></material></library_materials>";
+}
+}  // namespace
+
+TEST(ColladaInstancing, ReusedGeometryIsOnePrototypeWithComposedTransforms) {
+    const std::string nodes = "<node id=\"p\"><rotate>0 0 1 90</rotate><scale>2 1 3</scale>" +
+                              node("a", "<translate>1 0 0</translate>", "tri", bind("m", "red")) +
+                              node("b", "<scale>1 -1 1</scale>", "tri", bind("m", "red")) + "</node>";
+    Scene s = load(dae(geometries(tri_geometry("m")) + two_materials(), nodes));
+    ASSERT_EQ(s.prototypes.size(), 1u);
+    ASSERT_EQ(s.instances.size(), 2u);
+    ASSERT_EQ(s.meshes.size(), 1u);
+    EXPECT_EQ(s.prototypes[0].name, "tri");
+    EXPECT_EQ(s.materials[s.meshes[0].material].name, "red");
+    expect_near(s.meshes[0].positions[1], {1, 0, 0});  // object space
+    // p = R_z(90) S(2,1,3); a = p T(1,0,0): (0,0,0) -> (0,2,0); b mirrors y.
+    expect_near(s.instances[0].object_to_world.point({0, 0, 0}), {0, 2, 0});
+    expect_near(s.instances[0].object_to_world.point({1, 0, 0}), {0, 4, 0});
+    expect_near(s.instances[1].object_to_world.point({0, 1, 0}), {1, 0, 0});
+    EXPECT_LT(s.instances[1].object_to_world.det(), 0.0) << "a mirror is kept as an instance";
+    EXPECT_TRUE(has_note(s, "instancing: 2 instances of 1 geometries"));
+    EXPECT_EQ(s.num_triangles(), 1u);
+    EXPECT_EQ(s.instanced_triangles(), 2u);
+    scenes::flatten_instances(s);
+    ASSERT_EQ(s.meshes.size(), 2u);
+    expect_near(s.meshes[0].positions[1], {0, 4, 0});
+    EXPECT_EQ(s.meshes[1].indices, (std::vector<uint32_t>{0, 2, 1})) << "mirrored copy: winding swapped";
+}
+
+TEST(ColladaInstancing, FlattenedInstancesMatchThePlacedOnceLoad) {
+    // The same placements through an <instance_node> used three times, and through three
+    // geometries placed once each (loaded as before instancing).
+    const std::string shared = "<library_nodes><node id=\"k\"><translate>0 0 1</translate>"
+                               "<instance_geometry url=\"#tri\"/></node></library_nodes>";
+    const std::string placements[3] = {"<translate>5 0 0</translate><rotate>1 1 0 30</rotate>",
+                                       "<scale>1 2 -1</scale>", "<matrix>1 0.5 0 1 0 2 0 2 0 0 1 3 0 0 0 1</matrix>"};
+    std::string used, once, geoms;
+    for (int i = 0; i < 3; ++i) {
+        const std::string id = std::to_string(i);
+        used += "<node id=\"u" + id + "\">" + placements[i] + "<instance_node url=\"#k\"/></node>";
+        once += "<node id=\"o" + id + "\">" + placements[i] + "<node id=\"k" + id +
+                "\"><translate>0 0 1</translate><instance_geometry url=\"#t" + id + "\"/></node></node>";
+        geoms += geometry("t" + id, "0 0 0 1 0 0 0 1 0", 3,
+                          "<triangles count=\"1\">" + inputs("t" + id) + "<p>0 1 2</p></triangles>");
+    }
+    Scene inst = load(dae(geometries(tri_geometry()) + shared, used));
+    const Scene before = load(dae(geometries(geoms), once));
+    ASSERT_EQ(inst.prototypes.size(), 1u);
+    ASSERT_EQ(inst.instances.size(), 3u);
+    ASSERT_TRUE(before.prototypes.empty());
+    scenes::flatten_instances(inst);
+    ASSERT_EQ(inst.meshes.size(), 3u);
+    ASSERT_EQ(before.meshes.size(), 3u);
+    for (size_t i = 0; i < 3; ++i) {
+        // The mirrored placement (1) is the one difference: flatten_instances swaps its
+        // winding (scene.h), the COLLADA loader's own world-space copies never have.
+        EXPECT_EQ(before.meshes[i].indices, (std::vector<uint32_t>{0, 1, 2})) << i;
+        EXPECT_EQ(inst.meshes[i].indices, (i == 1 ? std::vector<uint32_t>{0, 2, 1} : std::vector<uint32_t>{0, 1, 2})) << i;
+        for (uint32_t v = 0; v < 3; ++v) {
+            EXPECT_EQ(inst.meshes[i].positions[v].x, before.meshes[i].positions[v].x) << i;
+            EXPECT_EQ(inst.meshes[i].positions[v].y, before.meshes[i].positions[v].y) << i;
+            EXPECT_EQ(inst.meshes[i].positions[v].z, before.meshes[i].positions[v].z) << i;
+        }
+    }
+}
+
+TEST(ColladaInstancing, PlacedOnceOrBoundDifferentlyStaysFlattened) {
+    // One placement each, or the same geometry under two bindings (a Prototype's meshes
+    // carry their materials): world space, as before.
+    const Scene one = load(dae(geometries(tri_geometry()), node("n", "<translate>1 0 0</translate>", "tri")));
+    EXPECT_TRUE(one.prototypes.empty());
+    EXPECT_TRUE(one.instances.empty());
+    expect_near(one.meshes[0].positions[0], {1, 0, 0});
+    const Scene two = load(dae(geometries(tri_geometry("m")) + two_materials(),
+                               node("a", "", "tri", bind("m", "red")) + node("b", "", "tri", bind("m", "blue"))));
+    EXPECT_TRUE(two.prototypes.empty());
+    EXPECT_EQ(two.meshes.size(), 2u);
+    EXPECT_NE(two.meshes[0].material, two.meshes[1].material);
+}
+
+TEST(ColladaInstancing, SpheresAndLightsUnderReuseAreCopied) {
+    const std::string sphere =
+        "<geometry id=\"ball\" name=\"ball\"><extra><technique profile=\"CGL\"><sphere><radius>1</radius>"
+        "</sphere></technique></extra></geometry>";
+    const std::string light = "<library_lights><light id=\"pt\"><technique_common><point><color>1 1 1</color>"
+                              "</point></technique_common></light></library_lights>";
+    const std::string lib = "<library_nodes><node id=\"k\">" + node("s", "", "ball") + node("t", "", "tri") +
+                            "<node id=\"l\"><instance_light url=\"#pt\"/></node></node></library_nodes>";
+    const std::string nodes = "<node id=\"a\"><translate>5 0 0</translate><instance_node url=\"#k\"/></node>"
+                              "<node id=\"b\"><translate>-5 0 0</translate><instance_node url=\"#k\"/></node>";
+    const Scene s = load(dae(geometries(tri_geometry() + sphere) + light + lib, nodes));
+    EXPECT_EQ(s.prototypes.size(), 1u) << "the triangle";
+    EXPECT_EQ(s.instances.size(), 2u);
+    ASSERT_EQ(s.spheres.size(), 2u);
+    expect_near(s.spheres[0].center, {5, 0, 0});
+    expect_near(s.spheres[1].center, {-5, 0, 0});
+    ASSERT_EQ(s.lights.size(), 2u);
+    EXPECT_TRUE(has_note(s, "2 placements of reused sphere geometries copied"));
+    EXPECT_TRUE(has_note(s, "2 lights under <instance_node> copied"));
+}
+
+TEST(ColladaInstancing, SingularPlacementIsDroppedAndTheLimitIsItsOwn) {
+    const std::string nodes = node("a", "", "tri") + node("flat", "<scale>1 0 1</scale>", "tri") +
+                              node("c", "<translate>0 0 2</translate>", "tri");
+    const Scene s = load(dae(geometries(tri_geometry()), nodes));
+    EXPECT_EQ(s.instances.size(), 2u);
+    EXPECT_TRUE(has_note(s, "node 'flat': singular or non-finite transform; its instance of geometry 'tri' dropped"));
+    // Instances have their own limit, and unique triangles count once.
+    scenes::ColladaLimits limits;
+    limits.max_triangles = 1;
+    const std::string doc = dae(geometries(tri_geometry()), nodes);
+    EXPECT_EQ(scenes::load_collada_memory(doc.data(), doc.size(), "t.dae", limits).instances.size(), 2u);
+    limits.max_instances = 1;
+    try {
+        scenes::load_collada_memory(doc.data(), doc.size(), "t.dae", limits);
+        FAIL() << "a second instance accepted past a limit of 1";
+    } catch (const SceneError& e) {
+        const std::string m = e.what();
+        EXPECT_NE(m.find("<instance_geometry> in <node id=\"c\">"), std::string::npos) << m;
+        EXPECT_NE(m.find("more than 1 instances"), std::string::npos) << m;
+    }
 }
 
 TEST(ColladaTransforms, NormalsUseTheInverseTransposeAndAreUnit) {

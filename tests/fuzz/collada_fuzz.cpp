@@ -12,6 +12,7 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
     limits.max_triangles = uint64_t(1) << 20;
     limits.max_node_visits = uint64_t(1) << 14;
     limits.max_node_depth = 64;
+    limits.max_instances = uint64_t(1) << 20;
     try {
         scenes::Scene s = scenes::load_collada_memory(data, size, "fuzz.dae", limits);
         // Touch the result so the optimiser cannot drop the work.

@@ -148,8 +148,10 @@ TEST(GltfTextureTransform, TexCoordOverrideAndBadValues) {
 
 // EXT_mesh_gpu_instancing: a unit cube placed 125 times, on a 5x5x5 grid, turned and
 // scaled non-uniformly per instance; once by the extension's accessors, once as 125
-// nodes with the same translation, rotation and scale. Both load as the same world-space
-// triangles.
+// nodes with the same translation, rotation and scale, and once as 125 nodes each with
+// its own copy of the mesh (so each is placed once and loaded in world space, as the
+// loader did before instancing). The first two load as one prototype and 125 instances;
+// flattened, all three are the same world-space triangles.
 struct Placement {
     float t[3], r[4], s[3];
 };
@@ -168,8 +170,9 @@ std::vector<Placement> grid_placements() {
 }
 
 /// A cube of 8 corners and 12 triangles at buffer offset 0, placed by 125 nodes
-/// (`instanced` false) or by one node with EXT_mesh_gpu_instancing.
-std::string cubes(bool instanced) {
+/// (`instanced` false) or by one node with EXT_mesh_gpu_instancing. `own_meshes`: the
+/// 125 nodes reference 125 mesh entries (all on the same accessors) instead of one.
+std::string cubes(bool instanced, bool own_meshes = false) {
     const std::vector<float> pos = {0, 0, 0, 1, 0, 0, 1, 1, 0, 0, 1, 0, 0, 0, 1, 1, 0, 1, 1, 1, 1, 0, 1, 1};
     const std::vector<uint16_t> idx = {0, 2, 1, 0, 3, 2, 4, 5, 6, 4, 6, 7, 0, 1, 5, 0, 5, 4,
                                        3, 6, 2, 3, 7, 6, 0, 4, 7, 0, 7, 3, 1, 2, 6, 1, 6, 5};
@@ -197,14 +200,18 @@ std::string cubes(bool instanced) {
             return o + "]";
         };
         for (size_t i = 0; i < pl.size(); ++i)
-            nodes += std::string(i ? "," : "") + R"({"mesh":0,"translation":)" + list(pl[i].t, 3) + R"(,"rotation":)" +
+            nodes += std::string(i ? "," : "") + R"({"mesh":)" + std::to_string(own_meshes ? i : 0) +
+                     R"(,"translation":)" + list(pl[i].t, 3) + R"(,"rotation":)" +
                      list(pl[i].r, 4) + R"(,"scale":)" + list(pl[i].s, 3) + "}";
     }
     std::string roots;
     for (size_t i = 0; i < (instanced ? 1u : pl.size()); ++i) roots += (i ? "," : "") + std::to_string(i);
     const size_t inst = instanced ? 125 * 40 : 0;
+    std::string meshes;
+    for (size_t i = 0; i < (own_meshes ? pl.size() : 1u); ++i)
+        meshes += std::string(i ? "," : "") + R"({"primitives":[{"attributes":{"POSITION":0},"indices":1}]})";
     return R"({"asset":{"version":"2.0"},"extensionsUsed":["EXT_mesh_gpu_instancing"],"scene":0,"scenes":[{"nodes":[)" +
-           roots + R"(]}],"nodes":[)" + nodes + R"(],"meshes":[{"primitives":[{"attributes":{"POSITION":0},"indices":1}]}],)"
+           roots + R"(]}],"nodes":[)" + nodes + R"(],"meshes":[)" + meshes + R"(],)"
            R"("accessors":[{"bufferView":0,"componentType":5126,"count":8,"type":"VEC3","min":[0,0,0],"max":[1,1,1]},)"
            R"({"bufferView":1,"componentType":5123,"count":36,"type":"SCALAR"})" + extras +
            R"(],"bufferViews":[{"buffer":0,"byteLength":96},{"buffer":0,"byteOffset":96,"byteLength":72})" +
@@ -216,20 +223,95 @@ std::string cubes(bool instanced) {
 }
 
 TEST(GltfGpuInstancing, PlacesEveryInstanceAsItsNodeTwinWould) {
-    const scenes::Scene inst = load(cubes(true), "instanced.gltf"), nodes = load(cubes(false), "nodes.gltf");
+    scenes::Scene inst = load(cubes(true), "instanced.gltf"), nodes = load(cubes(false), "nodes.gltf");
+    const scenes::Scene before = load(cubes(false, true), "own.gltf");
+    // One mesh placed 125 times, by the extension or by 125 nodes: one prototype, 125
+    // instances, the cube stored once in object space.
+    for (const scenes::Scene* s : {&inst, &nodes}) {
+        SCOPED_TRACE(s->source);
+        ASSERT_EQ(s->prototypes.size(), 1u);
+        ASSERT_EQ(s->instances.size(), 125u);
+        ASSERT_EQ(s->meshes.size(), 1u);
+        EXPECT_EQ(s->num_triangles(), 12u);
+        EXPECT_EQ(s->instanced_triangles(), 125u * 12u);
+        EXPECT_EQ(s->meshes[0].positions[6].x, 1.0f) << "object space";
+    }
+    for (size_t i = 0; i < 125; ++i)
+        for (int r = 0; r < 3; ++r)
+            for (int c = 0; c < 4; ++c)
+                EXPECT_NEAR(inst.instances[i].object_to_world.m[r][c], nodes.instances[i].object_to_world.m[r][c], 2e-5f)
+                    << "instance " << i;
+    bool noted = false;
+    for (const std::string& n : inst.notes) {
+        EXPECT_EQ(n.find("extensions ignored"), std::string::npos) << n;
+        noted = noted || n.find("instancing: 1 node places 125 instances of 1 mesh (1 node by "
+                                "EXT_mesh_gpu_instancing)") == 0;
+    }
+    EXPECT_TRUE(noted);
+    // The file whose nodes each have their own mesh is loaded as before instancing.
+    ASSERT_TRUE(before.prototypes.empty());
+    ASSERT_EQ(before.meshes.size(), 125u);
+    scenes::flatten_instances(inst);
+    scenes::flatten_instances(nodes);
+    ASSERT_EQ(inst.meshes.size(), 125u);
     ASSERT_EQ(nodes.meshes.size(), 125u);
-    ASSERT_EQ(inst.meshes.size(), 125u) << "one copy per instance";
     for (size_t i = 0; i < 125; ++i) {
         ASSERT_EQ(inst.meshes[i].num_triangles(), 12u);
-        ASSERT_EQ(inst.meshes[i].indices, nodes.meshes[i].indices) << "instance " << i;
-        for (size_t v = 0; v < 8; ++v)
-            EXPECT_LT(dist(inst.meshes[i].positions[v], nodes.meshes[i].positions[v]), 2e-5f)
+        ASSERT_EQ(inst.meshes[i].indices, before.meshes[i].indices) << "instance " << i;
+        ASSERT_EQ(nodes.meshes[i].indices, before.meshes[i].indices) << "instance " << i;
+        for (size_t v = 0; v < 8; ++v) {
+            EXPECT_LT(dist(inst.meshes[i].positions[v], before.meshes[i].positions[v]), 2e-5f)
                 << "instance " << i << " corner " << v;
+            // The nodes file composes the same matrices as the old loader did: the same bits.
+            EXPECT_EQ(nodes.meshes[i].positions[v].x, before.meshes[i].positions[v].x);
+            EXPECT_EQ(nodes.meshes[i].positions[v].y, before.meshes[i].positions[v].y);
+            EXPECT_EQ(nodes.meshes[i].positions[v].z, before.meshes[i].positions[v].z);
+        }
     }
     // Non-uniform scale and rotation really moved the corners (the comparison above is not
     // between two identity placements).
     EXPECT_GT(dist(inst.meshes[7].positions[6], scenes::Vec3f{1, 1, 1}), 1.0f);
-    for (const std::string& n : inst.notes) EXPECT_EQ(n.find("extensions ignored"), std::string::npos) << n;
+}
+
+TEST(GltfGpuInstancing, ALoneInstanceIsLoadedInWorldSpace) {
+    // One instance, and no other node places the mesh: flattened, as before instancing.
+    std::string one = cubes(true);
+    for (const char* a : {R"("count":125,"type":"VEC3"})", R"("count":125,"type":"VEC4"})"})
+        for (size_t at = one.find(a); at != std::string::npos; at = one.find(a, at + 1))
+            one.replace(at + 8, 3, "1");
+    const scenes::Scene s = load(one, "one.gltf");
+    EXPECT_TRUE(s.prototypes.empty());
+    EXPECT_TRUE(s.instances.empty());
+    ASSERT_EQ(s.meshes.size(), 1u);
+    const scenes::Scene before = load(cubes(false, true), "own.gltf");
+    for (size_t v = 0; v < 8; ++v) EXPECT_LT(dist(s.meshes[0].positions[v], before.meshes[0].positions[v]), 2e-5f);
+    bool noted = false;
+    for (const std::string& n : s.notes) noted = noted || n.find("EXT_mesh_gpu_instancing: 1 node places the only instance") == 0;
+    EXPECT_TRUE(noted);
+}
+
+TEST(GltfGpuInstancing, InstanceLimitAndHostileCountsFailNamingTheNode) {
+    scenes::GltfLimits limits;
+    limits.max_instances = 100;
+    const std::string text = cubes(true);
+    try {
+        scenes::load_gltf_memory(text.data(), text.size(), "many.gltf", "/nonexistent", false, limits);
+        FAIL() << "125 instances accepted past a limit of 100";
+    } catch (const scenes::SceneError& e) {
+        EXPECT_NE(std::string(e.what()).find("many.gltf: node 0: scene too large (more than 100 instances)"),
+                  std::string::npos)
+            << e.what();
+    }
+    // A count the buffer cannot hold is refused before anything is allocated for it.
+    std::string huge = cubes(true);
+    const std::string t = R"({"bufferView":2,"componentType":5126,"count":125,"type":"VEC3"})";
+    huge.replace(huge.find(t), t.size(), R"({"bufferView":2,"componentType":5126,"count":4000000000,"type":"VEC3"})");
+    try {
+        load(huge, "huge.gltf");
+        FAIL() << "an accessor count past its bufferView accepted";
+    } catch (const scenes::SceneError& e) {
+        EXPECT_NE(std::string(e.what()).find("accessor 2: 4000000000 elements"), std::string::npos) << e.what();
+    }
 }
 
 TEST(GltfGpuInstancing, MismatchedCountsAndBadAccessorsFailNamingTheNode) {

@@ -229,8 +229,13 @@ TEST(GltfTransforms, DefaultSceneAndAllRoots) {
     Scene one = load(d.json(kTriMesh + ",\"scene\":1,\"scenes\":[{\"nodes\":[0]},{\"nodes\":[1]}]" + nodes));
     ASSERT_EQ(one.meshes.size(), 1u);
     EXPECT_FLOAT_EQ(one.meshes[0].positions[0].z, 5.0f);
+    // Only the traversed scene counts: in scene 1 the mesh is placed once, so it is in
+    // world space; with every root node it is placed twice, so it is instanced.
+    EXPECT_TRUE(one.prototypes.empty());
     Scene all = load(d.json(kTriMesh + nodes));  // no scenes: every root node
-    EXPECT_EQ(all.meshes.size(), 2u);
+    EXPECT_EQ(all.prototypes.size(), 1u);
+    ASSERT_EQ(all.instances.size(), 2u);
+    EXPECT_FLOAT_EQ(all.instances[1].object_to_world.m[2][3], 5.0f);
     EXPECT_TRUE(has_note(all, "no scenes"));
 }
 
