@@ -45,8 +45,92 @@ void sphere_point(const Vec3f& c, float r, const Vec3f& p_hit, Vec3f& p, Vec3f& 
     p_error = accel::vabs(q) * gamma_bound(5) + (accel::vabs(c) + accel::vabs(q)) * gamma_bound(1);
 }
 
+Placement::Placement(const accel::Affine3f& object_to_world) : m(object_to_world) {
+    const Vec3f c0(m.m[0][0], m.m[1][0], m.m[2][0]), c1(m.m[0][1], m.m[1][1], m.m[2][1]),
+        c2(m.m[0][2], m.m[1][2], m.m[2][2]);
+    mirrors = m.det() < 0.0;
+    const float s = mirrors ? -1.0f : 1.0f;
+    n0 = accel::cross(c1, c2) * s;
+    n1 = accel::cross(c2, c0) * s;
+    n2 = accel::cross(c0, c1) * s;
+}
+
+void Placement::point(const Vec3f& p, const Vec3f& p_err, Vec3f& out, Vec3f& out_err) const {
+    out = m.point(p);
+    const float g3 = gamma_bound(3);
+    for (int r = 0; r < 3; ++r) {
+        const float* row = m.m[r];
+        const float mag = std::abs(row[0] * p.x) + std::abs(row[1] * p.y) + std::abs(row[2] * p.z) + std::abs(row[3]);
+        const float carried = std::abs(row[0]) * p_err.x + std::abs(row[1]) * p_err.y + std::abs(row[2]) * p_err.z;
+        out_err[r] = g3 * mag + (g3 + 1.0f) * carried;
+    }
+}
+
+namespace {
+
+/// make_interaction for a triangle of a prototype mesh hit through instance
+/// hit.inst_id: the surface quantities of the object-space triangle (the same
+/// arithmetic as a world-space one), then carried to world space. Its own function, so
+/// that the world-space path below keeps its arithmetic exactly.
+void instanced_triangle(const scenes::Scene& scene, const scenes::Mesh& m, const accel::Hit& hit,
+                        Interaction& it) {
+    const Placement place(scene.instances[hit.inst_id].object_to_world);
+    const uint32_t* idx = &m.indices[3 * size_t(hit.prim_id)];
+    Vec3f p_obj, e_obj;
+    triangle_point(m.positions[idx[0]], m.positions[idx[1]], m.positions[idx[2]], hit.u, hit.v, p_obj, e_obj);
+    place.point(p_obj, e_obj, it.p, it.p_error);
+    // Hit::ng of an instance is cof(L) n_obj: the mirrored placement's is reversed
+    // against its flattened copy (whose winding was swapped), so it is turned back.
+    it.ng = accel::normalize(hit.ng);
+    if (place.mirrors) it.ng = -it.ng;
+    it.ns = it.ng;
+    const float w0 = 1.0f - hit.u - hit.v;
+    if (!m.normals.empty()) {
+        // Each vertex normal placed and renormalised, then interpolated: the normals the
+        // flattened copy stores (scenes::flatten_instances), so that a placement shades as
+        // its copy does. Under a non-uniform scale, placing the interpolated normal instead
+        // would weigh the vertices differently (pbrt-v4 transforms the interpolated one).
+        Vec3f nv[3];
+        for (int k = 0; k < 3; ++k) {
+            const Vec3f w = place.normal(m.normals[idx[k]]);
+            const float len = accel::length(w);
+            nv[k] = len > 0.0f ? w / len : m.normals[idx[k]];
+        }
+        const Vec3f n = nv[0] * w0 + nv[1] * hit.u + nv[2] * hit.v;
+        const float len = accel::length(n);
+        if (len > 0.0f && std::isfinite(len)) it.ns = n / len;
+    }
+    if (!m.uvs.empty()) {
+        // Texture coordinates are the mesh's own, shared by every placement.
+        const Vec2f a = m.uvs[idx[0]], b = m.uvs[idx[1]], c = m.uvs[idx[2]];
+        it.uv = {a.x * w0 + b.x * hit.u + c.x * hit.v, a.y * w0 + b.y * hit.u + c.y * hit.v};
+        if (it.material < scene.materials.size() && is_textured(scene.materials[it.material])) {
+            // The object-space derivatives, then through L: dp/du of the placed surface
+            // is L times the object's (the chain rule; the translation drops out).
+            const Vec3f e1 = m.positions[idx[1]] - m.positions[idx[0]];
+            const Vec3f e2 = m.positions[idx[2]] - m.positions[idx[0]];
+            const float du1 = b.x - a.x, dv1 = b.y - a.y, du2 = c.x - a.x, dv2 = c.y - a.y;
+            const float det = du1 * dv2 - dv1 * du2;
+            if (std::abs(det) > 1e-12f) {
+                it.dpdu = place.vector((e1 * dv2 - e2 * dv1) / det);
+                it.dpdv = place.vector((e2 * du1 - e1 * du2) / det);
+            }
+        }
+    }
+}
+
+}  // namespace
+
 Interaction make_interaction(const scenes::Scene& scene, const SceneGeometry& geometry,
                              const accel::Ray& ray, const accel::Hit& hit) {
+    if (hit.inst_id != accel::kInvalidId) {
+        // Prototypes hold meshes only (scenes::Prototype), never spheres.
+        Interaction it;
+        it.t = hit.t;
+        it.material = geometry.material(hit.geom_id, hit.prim_id);
+        instanced_triangle(scene, scene.meshes[geometry.source(hit.geom_id).mesh], hit, it);
+        return it;
+    }
     Interaction it;
     it.t = hit.t;
     it.p = ray.org + ray.dir * hit.t;

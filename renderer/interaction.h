@@ -72,6 +72,32 @@ void triangle_point(const Vec3f& p0, const Vec3f& p1, const Vec3f& p2, float u, 
 /// centre back costs one more rounding, bounded by gamma(1) (|c| + |pHit|).
 void sphere_point(const Vec3f& c, float r, const Vec3f& p_hit, Vec3f& p, Vec3f& p_error);
 
+/// An instance's object-to-world transform as hits and light samples on it need it: points
+/// (with their rounding error), tangent vectors, and normals.
+struct Placement {
+    const accel::Affine3f& m;  ///< object to world: p' = L p + t
+    /// N = sign(det L) cof(L) = |det L| L^-T, columns c1 x c2, c2 x c0, c0 x c1 of L's
+    /// columns c0, c1, c2: normals transform by the inverse transpose (pbrt-v4, 4th ed.,
+    /// 3.10.3 "Normals"), and the positive factor |det L| goes with the renormalisation.
+    /// The sign makes a mirrored placement's normal that of its flattened copy, whose
+    /// winding scenes::flatten_instances swaps (glTF 2.0, 3.7.4), i.e. the
+    /// transformation of the object's normal, never its reversal.
+    Vec3f n0, n1, n2;
+    bool mirrors = false;  ///< det L < 0
+
+    explicit Placement(const accel::Affine3f& object_to_world);
+    Vec3f point(const Vec3f& p) const { return m.point(p); }
+    Vec3f vector(const Vec3f& v) const { return m.vector(v); }
+    /// N n, unnormalised (|det L| |L^-T n|).
+    Vec3f normal(const Vec3f& n) const { return n0 * n.x + n1 * n.y + n2 * n.z; }
+    /// A point with per-axis rounding bound `p_err` carried to world space, with the
+    /// bound of the result: pbrt-v4's Transform::operator()(Point3fi) (Pharr, Jakob,
+    /// Humphreys, "Physically Based Rendering", 4th ed., 6.8.6 "Transforming points with
+    /// error bounds"): gamma(3) (|L| |p| + |t|) for the rounding of the transform itself
+    /// plus (gamma(3) + 1) |L| p_err for the error the point already carried.
+    void point(const Vec3f& p, const Vec3f& p_err, Vec3f& out, Vec3f& out_err) const;
+};
+
 Interaction make_interaction(const scenes::Scene& scene, const SceneGeometry& geometry,
                              const accel::Ray& ray, const accel::Hit& hit);
 

@@ -91,9 +91,17 @@ LightSet::LightSet(const scenes::Scene& scene, LightModel model, std::vector<std
     // solid angle where near (near_triangle), else by area.
     std::vector<bool> mesh_is_light(scene.meshes.size(), false);
     bool emissive_surfaces = false;
+    // Prototype meshes are in object space: one light each for all the placements of its
+    // prototype (instances), if it has any.
+    const std::vector<int32_t> owner = scene.mesh_prototypes();
+    std::vector<std::vector<uint32_t>> placements(scene.prototypes.size());
+    for (uint32_t ii = 0; ii < scene.instances.size(); ++ii)
+        if (scene.instances[ii].prototype < placements.size()) placements[scene.instances[ii].prototype].push_back(ii);
     for (size_t mi = 0; mi < scene.meshes.size(); ++mi) {
         const scenes::Mesh& m = scene.meshes[mi];
         if (m.material >= scene.materials.size() || !scene.materials[m.material].is_emissive()) continue;
+        const bool instanced = owner[mi] >= 0;
+        if (instanced && placements[size_t(owner[mi])].empty()) continue;  // placed nowhere
         // Glow maps (emission textures) glow but, alone, are not taken to light a scene.
         if (m.uvs.empty() || scene.materials[m.material].emission_texture == scenes::kNoTexture)
             emissive_surfaces = true;
@@ -131,6 +139,41 @@ LightSet::LightSet(const scenes::Scene& scene, LightModel model, std::vector<std
         if (l.num_tris == 0) continue;
         for (uint32_t i = 0; i < l.num_tris; ++i) cdf_[l.first_tri + i] /= total;
         l.area = total;
+        if (instanced) {
+            // Placements by power: every one shares the mesh's emission, so by world
+            // area, the sum over its triangles of area * |N n| for the unit object
+            // normal n: cross(L a, L b) = cof(L) cross(a, b), so the cofactor matrix
+            // scales a triangle's area as it scales the length of its unit normal. A
+            // placement of zero or non-finite area is left out (never sampled: a ray
+            // cannot hit it either).
+            l.first_inst = uint32_t(inst_ids_.size());
+            std::vector<double> power;
+            double total_power = 0;
+            for (uint32_t ii : placements[size_t(owner[mi])]) {
+                const Placement place(scene.instances[ii].object_to_world);
+                double a = 0;
+                for (uint32_t k = 0; k < l.num_tris; ++k) {
+                    const Tri& t = tris_[l.first_tri + k];
+                    a += double(t.area) * double(accel::length(place.normal(t.n)));
+                }
+                if (!(a > 0) || !std::isfinite(a)) continue;
+                inst_ids_.push_back(ii);
+                power.push_back(a);
+                total_power += a;
+            }
+            l.num_inst = uint32_t(power.size());
+            if (l.num_inst == 0) continue;  // its triangles stay in tris_, unused
+            // Running sums in double, each rounded once; the last is exactly 1.
+            double run = 0;
+            for (uint32_t k = 0; k < l.num_inst; ++k) {
+                run += power[k];
+                inst_cdf_.push_back(k + 1 == l.num_inst ? 1.0f : float(run / total_power));
+            }
+            proto_light_.resize(scene.meshes.size(), -1);
+            proto_light_[mi] = int(lights_.size());
+            lights_.push_back(l);
+            continue;
+        }
         mesh_light_.resize(scene.meshes.size(), -1);
         mesh_light_[mi] = int(lights_.size());
         lights_.push_back(l);
@@ -247,6 +290,21 @@ SphericalTriangle LightSet::near_triangle(const Tri& t, const Vec3f& p) {
     return SphericalTriangle(p, t.v0, t.v0 + t.e1, t.v0 + t.e2);
 }
 
+LightSet::Tri LightSet::placed(const Tri& t, const Placement& place) {
+    Tri w = t;
+    w.v0 = place.point(t.v0);
+    w.e1 = place.vector(t.e1);
+    w.e2 = place.vector(t.e2);
+    w.n = accel::normalize(place.normal(t.n));  // the emitting side, as the flattened copy's
+    w.area = 0.5f * accel::length(accel::cross(w.e1, w.e2));
+    w.centroid = place.point(t.centroid);
+    float reach2 = 0;
+    for (const Vec3f& v : {w.v0, w.v0 + w.e1, w.v0 + w.e2})
+        reach2 = std::max(reach2, accel::dot(v - w.centroid, v - w.centroid));
+    w.near2 = kNearReach * kNearReach * reach2;
+    return w;
+}
+
 bool LightSet::sample(size_t i, const Vec3f& p, const Vec3f& n, float choice, Vec2f u2, LightSample& out) const {
     const Light& l = lights_[i];
     out.delta = false;
@@ -283,6 +341,7 @@ bool LightSet::sample(size_t i, const Vec3f& p, const Vec3f& n, float choice, Ve
             return finite_area(q, err, l.normal, 1.0f / l.area, false);
         }
         case Kind::Mesh: {
+            if (l.num_inst) return sample_instanced(l, p, choice, u2, out);
             const float u = choice;
             const float* begin = cdf_.data() + l.first_tri;
             const size_t k = std::min<size_t>(size_t(std::upper_bound(begin, begin + l.num_tris, u) - begin),
@@ -370,8 +429,73 @@ bool LightSet::sample(size_t i, const Vec3f& p, const Vec3f& n, float choice, Ve
     return false;
 }
 
+bool LightSet::sample_instanced(const Light& l, const Vec3f& p, float choice, Vec2f u2, LightSample& out) const {
+    // A placement by power, then, with the choice number remapped into its cdf interval
+    // (pbrt-v4's SampleDiscrete and its uRemapped), a triangle of the prototype mesh by
+    // its object-space area (the cdf every placement shares), then a point of it placed
+    // in world space. The density is P(placement) P(triangle) over the placed triangle's
+    // world area, or over its world solid angle where it is near: exactly what sampling
+    // the placed triangle on its own would give, times the two discrete probabilities.
+    const float* icdf = inst_cdf_.data() + l.first_inst;
+    const uint32_t j = std::min<uint32_t>(uint32_t(std::upper_bound(icdf, icdf + l.num_inst, choice) - icdf),
+                                          l.num_inst - 1);
+    const float p_inst = instance_pmf(l, j);
+    if (!(p_inst > 0)) return false;
+    const float lo = j ? icdf[j - 1] : 0.0f;
+    const float u = std::min((choice - lo) / p_inst, 0x1.fffffep-1f);
+    const float* begin = cdf_.data() + l.first_tri;
+    const size_t k =
+        std::min<size_t>(size_t(std::upper_bound(begin, begin + l.num_tris, u) - begin), l.num_tris - 1);
+    const Tri& t = tris_[l.first_tri + k];
+    const Placement place(scene_->instances[inst_ids_[l.first_inst + j]].object_to_world);
+    const Tri w = placed(t, place);
+    const float p_tri = p_inst * t.area / l.area;  // P(placement) P(triangle)
+    float a = u2.x, b = u2.y;
+    float solid_pdf = 0;
+    const SphericalTriangle st = near_triangle(w, p);
+    if (solid_angle_sampled(st)) {
+        if (!barycentrics_toward(p, st.sample(a, b), w.v0, w.e1, w.e2, a, b)) return false;
+        solid_pdf = p_tri / st.solid_angle();
+    } else if (a + b > 1.0f) {
+        a = 1.0f - a;
+        b = 1.0f - b;
+    }
+    // The point in object space (the bound of a world-space emitter's point), then
+    // placed with the transform's own rounding added (Placement::point, pbrt-v4 6.8.6).
+    const Vec3f ea = t.e1 * a, eb = t.e2 * b;
+    const Vec3f err_obj = (accel::vabs(t.v0) + accel::vabs(ea) + accel::vabs(eb)) * gamma_bound(7);
+    Vec3f q, q_err;
+    place.point(t.v0 + ea + eb, err_obj, q, q_err);
+    const Vec3f d = q - p;
+    const float dist2 = accel::dot(d, d);
+    if (!(dist2 > 0)) return false;
+    const float dist = std::sqrt(dist2);
+    const Vec3f wi = d / dist;
+    float cos_l = -accel::dot(w.n, wi);
+    if (t.two_sided) cos_l = std::abs(cos_l);
+    if (!(cos_l > 0)) return false;
+    out.radiance = l.radiance;
+    out.target = q;
+    out.target_error = q_err;
+    out.normal = w.n;
+    out.wi = wi;
+    out.distance = dist;
+    out.pdf = solid_pdf > 0 ? solid_pdf : p_tri / w.area * dist2 / cos_l;
+    if (!(std::isfinite(out.pdf) && out.pdf > 0)) return false;
+    if (l.texture != scenes::kNoTexture) {
+        const scenes::Mesh& m = scene_->meshes[t.mesh];
+        const uint32_t* idx = &m.indices[3 * size_t(t.index)];
+        const Vec2f t0 = m.uvs[idx[0]], t1 = m.uvs[idx[1]], t2 = m.uvs[idx[2]];
+        const float w0 = 1.0f - a - b;
+        const Vec2f uv{t0.x * w0 + t1.x * a + t2.x * b, t0.y * w0 + t1.y * a + t2.y * b};
+        out.radiance = out.radiance * texel(*scene_, l.texture, uv);
+        if (!(accel::max_component(out.radiance) > 0)) return false;
+    }
+    return true;
+}
+
 float LightSet::pdf(size_t i, const Vec3f& p, const Vec3f& n, const Vec3f& wi, float dist, const Vec3f& nq,
-                   uint32_t prim) const {
+                   uint32_t prim, uint32_t inst) const {
     const Light& l = lights_[i];
     switch (l.kind) {
         case Kind::Mesh: {
@@ -380,6 +504,18 @@ float LightSet::pdf(size_t i, const Vec3f& p, const Vec3f& n, const Vec3f& wi, f
             const auto begin = tris_.begin() + l.first_tri, end = begin + l.num_tris;
             const auto it = std::lower_bound(begin, end, prim, [](const Tri& t, uint32_t v) { return t.index < v; });
             if (it == end || it->index != prim) return 0.0f;
+            if (l.num_inst) {
+                // sample_instanced's density: the placement found by its id (ascending).
+                const uint32_t* ids = inst_ids_.data() + l.first_inst;
+                const uint32_t* f = std::lower_bound(ids, ids + l.num_inst, inst);
+                if (f == ids + l.num_inst || *f != inst) return 0.0f;
+                const float p_tri = instance_pmf(l, uint32_t(f - ids)) * it->area / l.area;
+                const Tri w = placed(*it, Placement(scene_->instances[inst].object_to_world));
+                const SphericalTriangle st = near_triangle(w, p);
+                if (solid_angle_sampled(st)) return p_tri / st.solid_angle();
+                const float cos_l = std::abs(accel::dot(nq, wi));
+                return cos_l > 0 ? p_tri * dist * dist / (cos_l * w.area) : 0.0f;
+            }
             const SphericalTriangle st = near_triangle(*it, p);
             if (solid_angle_sampled(st)) return it->area / (l.area * st.solid_angle());
             const float cos_l = std::abs(accel::dot(nq, wi));
@@ -402,9 +538,16 @@ float LightSet::pdf(size_t i, const Vec3f& p, const Vec3f& n, const Vec3f& wi, f
 std::string LightSet::summary() const {
     size_t counts[7] = {};
     for (const Light& l : lights_) ++counts[size_t(l.kind)];
-    return fmt::format("[PathTracer] Lights sampled: {} area rectangles, {} emissive meshes ({} triangles), "
+    size_t instanced = 0;
+    for (const Light& l : lights_) instanced += l.num_inst > 0;
+    // Instanced emitters: how many of the emissive meshes are prototype meshes, and how
+    // many placements of them are sampled (only when there are any, so a flat scene's
+    // line is as it was).
+    const std::string placed =
+        instanced ? fmt::format(", {} of them instanced in {} placements", instanced, inst_ids_.size()) : "";
+    return fmt::format("[PathTracer] Lights sampled: {} area rectangles, {} emissive meshes ({} triangles{}), "
                        "{} emissive spheres, {} point, {} spot, {} directional, {} environment",
-                       counts[0], counts[1], tris_.size(), counts[2], counts[3], counts[4], counts[5],
+                       counts[0], counts[1], tris_.size(), placed, counts[2], counts[3], counts[4], counts[5],
                        counts[6]);
 }
 

@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "accel/math.h"
+#include "accel/ray.h"
 #include "renderer/envmap.h"
 #include "renderer/rng.h"
 #include "renderer/spherical_triangle.h"
@@ -18,6 +19,7 @@ namespace renderer {
 using accel::Vec2f;
 using accel::Vec3f;
 struct Interaction;
+struct Placement;
 
 /// Which surfaces are lights (renderer/README.md, "Light semantics").
 ///  - Course: the CS184 course exactly. Light sampling (-l) draws only from the file's
@@ -110,7 +112,12 @@ public:
 
     /// For multiple importance sampling (renderer/integrators/path.cpp): the light that
     /// mesh `mesh` / sphere `sphere` / the environment is, or -1 if it is not sampled.
-    int light_of_mesh(uint32_t mesh) const { return mesh < mesh_light_.size() ? mesh_light_[mesh] : -1; }
+    /// A hit inside instance `inst` (accel::Hit::inst_id) on prototype mesh `mesh` finds
+    /// the light of all that mesh's placements; pdf() then takes the instance too.
+    int light_of_mesh(uint32_t mesh, uint32_t inst = accel::kInvalidId) const {
+        if (inst != accel::kInvalidId) return mesh < proto_light_.size() ? proto_light_[mesh] : -1;
+        return mesh < mesh_light_.size() ? mesh_light_[mesh] : -1;
+    }
     int light_of_sphere(uint32_t sphere) const {
         return sphere < sphere_light_.size() ? sphere_light_[sphere] : -1;
     }
@@ -122,9 +129,10 @@ public:
     }
     /// Solid-angle density with which sample(i, p, n) returns direction wi toward the
     /// point of light i at distance `dist` whose geometric normal is `nq` and, for an
-    /// emissive mesh, which is on its triangle `prim` (unused for the environment).
+    /// emissive mesh, which is on its triangle `prim` (unused for the environment) and,
+    /// for an instanced one, in instance `inst`.
     float pdf(size_t i, const Vec3f& p, const Vec3f& n, const Vec3f& wi, float dist, const Vec3f& nq,
-              uint32_t prim = 0) const;
+              uint32_t prim = 0, uint32_t inst = accel::kInvalidId) const;
 
     /// Summary line per kind, for stderr.
     std::string summary() const;
@@ -139,6 +147,9 @@ private:
         float cos_inner = 1, cos_outer = 0;
         uint32_t first_tri = 0, num_tris = 0;    // mesh: range in tris_/cdf_
         uint32_t texture = scenes::kNoTexture;   // mesh: emission texture
+        /// Instanced mesh: its placements are inst_ids_/inst_cdf_[first_inst, +num_inst),
+        /// its triangles (in tris_, `area` = their total) in object space. 0: world space.
+        uint32_t first_inst = 0, num_inst = 0;
     };
     struct Tri {
         Vec3f v0, e1, e2;
@@ -151,6 +162,18 @@ private:
     };
     /// The spherical triangle of `t` seen from p when p is near it, else an invalid one.
     static SphericalTriangle near_triangle(const Tri& t, const Vec3f& p);
+    /// The object-space triangle `t` placed by `place` (renderer/interaction.h): world
+    /// vertices, unit emitting normal, area, centroid and reach, as a world-space
+    /// emitter's Tri would hold them, made at the sample (or pdf) that needs it.
+    static Tri placed(const Tri& t, const Placement& place);
+    /// sample() of an instanced mesh light (Light::num_inst > 0).
+    bool sample_instanced(const Light& l, const Vec3f& p, float choice, Vec2f u2, LightSample& out) const;
+    /// Probability with which instanced light `l` picks its placement number k (the gap
+    /// of its cdf: sample() and pdf() read the same numbers).
+    float instance_pmf(const Light& l, uint32_t k) const {
+        const float* c = inst_cdf_.data() + l.first_inst;
+        return c[k] - (k ? c[k - 1] : 0.0f);
+    }
 
     std::vector<Light> lights_;
     std::vector<Tri> tris_;    // emissive triangles, grouped by mesh light
@@ -158,6 +181,14 @@ private:
     int env_ = -1;
     LightModel model_ = LightModel::Mesh;
     std::vector<int> mesh_light_, sphere_light_;  // scene mesh / sphere -> light, -1 if none
+    /// Emissive prototype meshes: a prototype mesh -> the light of all its placements.
+    /// A placement is 8 bytes (its instance id, ascending, and its cdf entry by world
+    /// area, i.e. power, as every placement shares the mesh's emission), and only
+    /// placements of emissive prototype meshes have one: N placements of an emitter are
+    /// N sampled emitters without N copies of its triangles.
+    std::vector<int> proto_light_;
+    std::vector<uint32_t> inst_ids_;
+    std::vector<float> inst_cdf_;
     EnvironmentMap env_map_;  // an image environment (-e), importance-sampled
     const scenes::Scene* scene_ = nullptr;  // for emission textures
 };

@@ -30,15 +30,30 @@ bool parse_ray_kind(const std::string& name, RayKind& kind) {
 
 namespace {
 
-/// A random triangle of the scene, chosen uniformly by index over all meshes.
+/// A random triangle of the scene, chosen uniformly by index over the triangles it
+/// places: world-space meshes, then each instance's prototype meshes (in world space
+/// through its transform; prototype meshes themselves are in object space and never
+/// picked as they are). A flat scene's slots are its meshes in order, as before instances.
 struct TrianglePicker {
     const scenes::Scene& scene;
-    std::vector<uint64_t> offsets;  // prefix sums of triangle counts
+    struct Slot {
+        uint32_t mesh, inst;  ///< inst: accel::kInvalidId for a world-space mesh
+    };
+    std::vector<Slot> slots;
+    std::vector<uint64_t> offsets;  // prefix sums of triangle counts, one per slot
     explicit TrianglePicker(const scenes::Scene& s) : scene(s) {
         uint64_t n = 0;
-        for (const scenes::Mesh& m : s.meshes) {
+        auto add = [&](uint32_t mesh, uint32_t inst) {
+            slots.push_back({mesh, inst});
             offsets.push_back(n);
-            n += m.num_triangles();
+            n += s.meshes[mesh].num_triangles();
+        };
+        const std::vector<int32_t> owner = s.mesh_prototypes();
+        for (uint32_t m = 0; m < s.meshes.size(); ++m)
+            if (owner[m] < 0) add(m, accel::kInvalidId);
+        for (uint32_t i = 0; i < s.instances.size(); ++i) {
+            const scenes::Prototype& p = s.prototypes[s.instances[i].prototype];
+            for (uint32_t k = 0; k < p.num_meshes; ++k) add(p.first_mesh + k, i);
         }
         offsets.push_back(n);
     }
@@ -46,9 +61,11 @@ struct TrianglePicker {
     void pick(Rng& rng, Vec3f v[3]) const {
         uint64_t i = uint64_t(double(rng.next_u32()) / 4294967296.0 * double(total()));
         size_t m = size_t(std::upper_bound(offsets.begin(), offsets.end(), i) - offsets.begin()) - 1;
-        const scenes::Mesh& mesh = scene.meshes[m];
+        const scenes::Mesh& mesh = scene.meshes[slots[m].mesh];
         const uint32_t* idx = &mesh.indices[3 * (i - offsets[m])];
         for (int k = 0; k < 3; ++k) v[k] = mesh.positions[idx[k]];
+        if (slots[m].inst != accel::kInvalidId)
+            for (int k = 0; k < 3; ++k) v[k] = scene.instances[slots[m].inst].object_to_world.point(v[k]);
     }
 };
 

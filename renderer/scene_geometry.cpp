@@ -39,11 +39,13 @@ inline uint32_t bits(float f) {
 }
 }  // namespace
 
-float blend_uniform(const accel::Ray& ray, uint32_t geom_id, uint32_t prim_id) {
+float blend_uniform(const accel::Ray& ray, uint32_t geom_id, uint32_t prim_id, uint32_t inst_id) {
     uint64_t h = 0;
     for (int a = 0; a < 3; ++a) h = mix(h, bits(ray.org[a]));
     for (int a = 0; a < 3; ++a) h = mix(h, bits(ray.dir[a]));
     h = mix(mix(h, geom_id), prim_id);
+    // Only for instanced hits: world-space geometry keeps the numbers it had before.
+    if (inst_id != accel::kInvalidId) h = mix(h, inst_id);
     return float(h >> 40) * 0x1p-24f;  // 24 bits: exactly representable, < 1
 }
 
@@ -54,7 +56,7 @@ bool alpha_filter(const void* user, uint32_t geom_id, uint32_t prim_id, uint32_t
     if (a.mode == scenes::AlphaMode::Mask) return alpha >= a.cutoff;
     if (alpha >= 1.0f) return true;
     if (!(alpha > 0.0f)) return false;
-    return blend_uniform(ray, geom_id, prim_id) < alpha;
+    return blend_uniform(ray, geom_id, prim_id, inst_id) < alpha;
 }
 
 SceneGeometry::SceneGeometry(const scenes::Scene& scene) : scene_(scene) {
@@ -90,6 +92,9 @@ SceneGeometry::SceneGeometry(const scenes::Scene& scene) : scene_(scene) {
         views_.push_back(accel::GeometryView::sphere_list(spheres_.data(), uint32_t(scene.spheres.size())));
         sources_.push_back({GeomSource::Spheres, 0});
     }
+    // Geometry ids are mesh indices, so a prototype's mesh range is its geometry range.
+    prototypes_.reserve(scene.prototypes.size());
+    for (const scenes::Prototype& p : scene.prototypes) prototypes_.push_back({p.first_mesh, p.num_meshes});
 }
 
 uint32_t SceneGeometry::material(uint32_t geom_id, uint32_t prim_id) const {
@@ -104,13 +109,26 @@ std::unique_ptr<accel::Accelerator> build_accelerator(const std::string& backend
                                                       bool verbose) {
     uint64_t prims = 0;
     for (const accel::GeometryView& v : geometry.views()) prims += v.num_prims;
+    const accel::InstanceSet inst = geometry.instances();
     if (verbose) {
-        std::fprintf(stderr, "[PathTracer] Building BVH from %llu primitives... ",
-                     (unsigned long long)prims);
+        // The course's line; with instances, the primitives are the unique ones (world
+        // space and prototypes') and the line adds what the instances place.
+        std::string placed;
+        if (!inst.instances.empty()) {
+            std::vector<uint64_t> per(inst.prototypes.size(), 0);
+            for (size_t p = 0; p < inst.prototypes.size(); ++p)
+                for (uint32_t g = 0; g < inst.prototypes[p].num_geoms; ++g)
+                    per[p] += geometry.views()[inst.prototypes[p].first_geom + g].num_prims;
+            uint64_t instanced = 0;
+            for (const accel::InstanceView& i : inst.instances) instanced += per[i.prototype];
+            placed = fmt::format(" and {} instances ({} instanced triangles)", inst.instances.size(), instanced);
+        }
+        std::fprintf(stderr, "[PathTracer] Building BVH from %llu primitives%s... ", (unsigned long long)prims,
+                     placed.c_str());
         std::fflush(stderr);
     }
     auto start = std::chrono::steady_clock::now();
-    auto accel = accel::create_accelerator(backend, geometry.views(), options);
+    auto accel = accel::create_accelerator(backend, geometry.views(), options, inst);
     double secs = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     if (verbose) {
         std::fprintf(stderr, "Done! (%.4f sec)\n", secs);
@@ -118,6 +136,9 @@ std::unique_ptr<accel::Accelerator> build_accelerator(const std::string& backend
         std::string extra;
         if (info.nodes) extra += fmt::format(", {} nodes, depth {}", info.nodes, info.depth);
         if (info.sah_cost > 0) extra += fmt::format(", SAH cost {:.2f}", info.sah_cost);
+        if (info.instances)
+            extra += fmt::format(", {} instances placing {} instanced primitives", info.instances,
+                                 info.instanced_primitives);
         std::fprintf(stderr, "[PathTracer] Accelerator %s: %llu primitives (%llu degenerate dropped)%s, %.2f MiB\n",
                      info.backend.c_str(), (unsigned long long)info.primitives,
                      (unsigned long long)info.dropped, extra.c_str(),

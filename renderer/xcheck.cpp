@@ -40,7 +40,7 @@ void trace_batches(const accel::Accelerator& accel, const RaySet& set, bool any_
         accel.intersect_batch(rays, hits.data(), st);
         for (size_t i = 0; i < r.size(); ++i) {
             const accel::Hit& h = hits[i];
-            out[r.begin() + i] = h.valid() ? RayOutcome{true, h.t, h.u, h.v, h.geom_id, h.prim_id, h.ng} : RayOutcome{};
+            out[r.begin() + i] = h.valid() ? RayOutcome{true, h.t, h.u, h.v, h.geom_id, h.prim_id, h.ng, h.inst_id} : RayOutcome{};
         }
     });
 }
@@ -70,7 +70,7 @@ void trace_set_into(const accel::Accelerator& accel, const RaySet& set, accel::T
                               }
                               accel::Hit h;
                               if (accel.intersect(set.rays[i], h, st))
-                                  o = {true, h.t, h.u, h.v, h.geom_id, h.prim_id, h.ng};
+                                  o = {true, h.t, h.u, h.v, h.geom_id, h.prim_id, h.ng, h.inst_id};
                               else
                                   o = RayOutcome{};
                           }
@@ -98,6 +98,14 @@ bool share_vertex(const SceneGeometry& g, const RayOutcome& a, const RayOutcome&
     accel::Vec3f pa[3], pb[3];
     accel::triangle_vertices(va, a.prim, pa[0], pa[1], pa[2]);
     accel::triangle_vertices(vb, b.prim, pb[0], pb[1], pb[2]);
+    // A prototype's triangles are in object space: compare where the placements put them.
+    const auto placed = [&](const RayOutcome& o, accel::Vec3f* p) {
+        if (o.inst == accel::kInvalidId) return;
+        const accel::Affine3f& m = g.instances().instances[o.inst].object_to_world;
+        for (int k = 0; k < 3; ++k) p[k] = m.point(p[k]);
+    };
+    placed(a, pa);
+    placed(b, pb);
     for (const auto& x : pa)
         for (const auto& y : pb)
             if (same_position(x, y)) return true;
@@ -144,7 +152,7 @@ Verdict classify(const accel::Ray& ray, bool occlusion, const RayOutcome& ref, c
     (void)other_c;
     if (!ref.hit && !other.hit) return Verdict::Agree;
     if (ref.hit && other.hit) {
-        if (ref.geom == other.geom && ref.prim == other.prim) return Verdict::Agree;
+        if (ref.geom == other.geom && ref.prim == other.prim && ref.inst == other.inst) return Verdict::Agree;
         const float dt = std::abs(ref.t - other.t);
         const float tt = std::max(std::abs(ref.t), std::abs(other.t));
         const float dlen = accel::length(ray.dir);
@@ -184,7 +192,7 @@ KindReport compare_backends(const accel::Accelerator& ref, const std::string& re
         const bool same_hit = a[i].hit == b[i].hit;
         rep.hit_agree += same_hit;
         const bool same_prim =
-            same_hit && (set.occlusion() || !a[i].hit || (a[i].geom == b[i].geom && a[i].prim == b[i].prim));
+            same_hit && (set.occlusion() || !a[i].hit || (a[i].geom == b[i].geom && a[i].prim == b[i].prim && a[i].inst == b[i].inst));
         rep.prim_agree += same_prim;
         if (!set.occlusion() && a[i].hit && same_prim) {
             const double dt = std::abs(double(a[i].t) - double(b[i].t)) /

@@ -19,6 +19,8 @@ struct RayOutcome {
     float t = 0, u = 0, v = 0;
     uint32_t geom = accel::kInvalidId, prim = accel::kInvalidId;
     accel::Vec3f ng;
+    /// accel::Hit::inst_id: two hits agree only inside the same placement.
+    uint32_t inst = accel::kInvalidId;
 };
 
 /// Traces every ray (closest hit; any-hit too for occlusion sets, stored in `hit`),
@@ -47,7 +49,7 @@ struct KindReport {
     std::string reference, backend;
     uint64_t rays = 0;
     uint64_t hit_agree = 0;   ///< same hit/miss
-    uint64_t prim_agree = 0;  ///< same hit/miss and, when both hit, same (geom, prim)
+    uint64_t prim_agree = 0;  ///< same hit/miss and, when both hit, same (geom, prim, instance)
     double max_rel_dt = 0;    ///< over rays where both hit the same primitive
     uint64_t ties = 0, numerical = 0, real = 0;
     accel::TraceStats stats;  ///< the backend's own counters on this set

@@ -70,6 +70,7 @@ struct Options {
     float lens_radius = -1, focal_distance = -1;
     std::string checkpoint, resume;
     double max_memory_gib = 0;  ///< --max-memory; 0 = this machine's memory
+    std::string instancing = "auto";  ///< --instancing: auto | flatten
 };
 
 /// --accel: the backends built in, and any plugin:PATH[:OPTIONS] (accel::is_backend_name
@@ -153,6 +154,13 @@ void add_scene_options(CLI::App& app, Options& o) {
                    "ray, two-sided for .dae (glTF: the material's doubleSided); an area light describing "
                    "the same panel is counted once; -H and -l converge to the same image")
         ->check(CLI::IsMember({"course", "mesh"}));
+    app.add_option("--instancing", o.instancing,
+                   "Scenes that place a mesh more than once: auto (default; each placement is an "
+                   "instance the backend traces through its transform, so the triangles are stored "
+                   "once; a plugin backend, which traces no instances, flattens, with a note) | "
+                   "flatten (every placement becomes a world-space copy after loading, as before "
+                   "instancing: more memory, the same image up to rounding)")
+        ->check(CLI::IsMember({"auto", "flatten"}));
     app.add_option("--cam-pos", o.cam_pos, "Camera position X Y Z")->expected(3);
     app.add_option("--cam-target", o.cam_target, "Camera target X Y Z")->expected(3);
     app.add_option("--cam-up", o.cam_up, "Camera up X Y Z")->expected(3);
@@ -335,9 +343,37 @@ scenes::Scene load_scene(const Options& o) {
     std::fprintf(stderr, "Done! (%.4f sec)\n",
                  std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
     std::fputs(scenes::scene_summary(scene).c_str(), stderr);
+    if (!scene.instances.empty() || !scene.prototypes.empty())
+        // What the file asked for: the summary's triangles are the unique ones (each
+        // mesh once); the instances place more, which a flat scene would copy.
+        std::fprintf(stderr,
+                     "[PathTracer]   instances: %zu placements of %zu prototypes; %llu unique triangles "
+                     "(%llu in world space), %llu instanced triangles\n",
+                     scene.instances.size(), scene.prototypes.size(), (unsigned long long)scene.num_triangles(),
+                     (unsigned long long)scene.world_triangles(), (unsigned long long)scene.instanced_triangles());
     tools::print_once("[PathTracer] Note: ", scene.notes);
     tools::print_once("[PathTracer] Warning: ", scene.warnings);
     if (o.strict && !scene.warnings.empty()) fail(scene.warnings.front() + " (--strict)");
+    if (!scene.instances.empty() || !scene.prototypes.empty()) {
+        // --instancing=flatten, or a backend that traces no instances (a plugin): world-space
+        // copies of every placement (scenes::flatten_instances), the scene a loader without
+        // instancing would have made.
+        const bool asked = o.instancing == "flatten";
+        if (asked || !accel::backend_traces_instances(o.backend)) {
+            const uint64_t placed = scene.instanced_triangles();
+            const size_t count = scene.instances.size();
+            try {
+                scenes::flatten_instances(scene);
+            } catch (const std::bad_alloc& e) {
+                mem::out_of_memory(e);
+            } catch (const scenes::SceneError& e) {
+                fail(e.what());
+            }
+            std::fprintf(stderr, "[PathTracer] Note: %s: %zu instances flattened into world-space copies (%llu triangles)\n",
+                         asked ? "--instancing=flatten" : fmt::format("backend {} traces no instances", o.backend).c_str(),
+                         count, (unsigned long long)placed);
+        }
+    }
     if (scene.num_triangles() == 0 && scene.spheres.empty())
         fail(fmt::format("{}: the scene has no geometry to render", o.scene_path));
     if (!o.env_map.empty()) add_environment(scene, o.env_map);

@@ -266,11 +266,13 @@ bool PathIntegrator::scatter(const scenes::Material& m, int bounce, Interaction&
         const Vec3f Le = lights_.emitted(it, wo);
         if (!is_black(Le)) {
             const GeomSource& src = geometry_.source(hit.geom_id);
-            const int li = src.kind == GeomSource::Mesh ? lights_.light_of_mesh(src.mesh)
+            // An instanced emitter's light is that of its prototype mesh's placements.
+            const int li = src.kind == GeomSource::Mesh ? lights_.light_of_mesh(src.mesh, hit.inst_id)
                                                         : lights_.light_of_sphere(hit.prim_id);
-            const float w =
-                bsdf_weight(li < 0 ? 0.0f : float(s_.light_samples) *
-                                                  lights_.pdf(size_t(li), p_here, n_here, wi, it.t, it.ng, hit.prim_id));
+            const float w = bsdf_weight(li < 0 ? 0.0f
+                                               : float(s_.light_samples) * lights_.pdf(size_t(li), p_here, n_here, wi,
+                                                                                       it.t, it.ng, hit.prim_id,
+                                                                                       hit.inst_id));
             L += beta * Le * w;
         }
     }

@@ -16,7 +16,7 @@ namespace {
 
 bool same(const renderer::RayOutcome& a, const renderer::RayOutcome& b) {
     return a.hit == b.hit && a.t == b.t && a.u == b.u && a.v == b.v && a.geom == b.geom && a.prim == b.prim &&
-           a.ng == b.ng;
+           a.ng == b.ng && a.inst == b.inst;
 }
 
 TEST(TraceSetInto, OverwritesEveryElementOfAReusedArray) {
