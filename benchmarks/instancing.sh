@@ -27,12 +27,13 @@ printf "| backend | peak RSS MiB | accelerator MiB | accelerator bytes per insta
 for b in custom embree; do
   /usr/bin/time -f "%M" -o "$OUT/rss_$b" "$BUILD/tools/pathtracer" --accel $b -r 64 48 -s 1 \
     -f "$OUT/forest_big_$b.png" "$OUT/forest_big.glb" >"$OUT/render_$b.out" 2>&1
-  # "[PathTracer] Accelerator ...: ... 884.50 MiB" and the instance count it names.
-  mib=$(grep -o '[0-9.]* MiB$' "$OUT/render_$b.out" | tail -1 | awk '{print $1}')
-  inst=$(grep -o '[0-9]* instances' "$OUT/render_$b.out" | head -1 | awk '{print $1}')
+  # "[PathTracer] Accelerator ...: ..., N instances placing ..., X MiB".
+  acc=$(grep '\[PathTracer\] Accelerator' "$OUT/render_$b.out")
+  mib=$(echo "$acc" | grep -o '[0-9.]* MiB$' | awk '{print $1}')
+  inst=$(echo "$acc" | grep -o '[0-9]* instances placing' | awk '{print $1}')
   secs=$(grep -o 'Render time [0-9.]*' "$OUT/render_$b.out" | awk '{print $3}')
   awk -v b=$b -v rss="$(cat "$OUT/rss_$b")" -v mib="$mib" -v inst="$inst" -v s="$secs" \
-    'BEGIN { printf "| %s | %.0f | %.1f | %.1f | %s |\n", b, rss / 1024, mib, inst > 0 ? mib * 1048576 / inst : 0, s }'
+    'BEGIN { printf "| %s | %.0f | %.1f | %.1f | %s |\n", b, rss / 1024, mib, (inst > 0 ? mib * 1048576 / inst : 0), s }'
 done
 
 bench() {  # scene csv [extra accel_bench options]
@@ -50,18 +51,18 @@ echo "## speed: Mrays/s, ours / Embree's (same rays, same run), build ms"
 printf "| scene | rays | threads | custom Mrays/s | embree Mrays/s | custom / embree | build ms custom / embree |\n"
 printf "|---|---|---:|---:|---:|---:|---:|\n"
 for f in big small small_flat; do
-  awk -F, -v f=$f 'NR > 1 { k = $4 "," $5; if ($3 == "custom:sah") { c[k] = $6; cb = $10 } else if ($3 == "embree:high") { e[k] = $6; eb = $10 }
+  awk -F, -v f=$f 'NR > 1 { k = $4 "," $5; if ($3 ~ /^custom/) { c[k] = $6; cb = $10 } else if ($3 == "embree:high") { e[k] = $6; eb = $10 }
                             if (!(k in seen)) { seen[k] = 1; order[++n] = k } }
     END { for (i = 1; i <= n; i++) { split(order[i], p, ",");
             printf "| %s | %s | %s | %.3f | %.3f | %.2f | %.0f / %.0f |\n", f, p[1], p[2], c[order[i]], e[order[i]],
-                   e[order[i]] > 0 ? c[order[i]] / e[order[i]] : 0, cb, eb } }' "$OUT/$f.csv"
+                   (e[order[i]] > 0 ? c[order[i]] / e[order[i]] : 0), cb, eb } }' "$OUT/$f.csv"
 done
 
 echo
 echo "## instances against flattening (forest_small): accelerator MiB and peak RSS of the run (both backends held)"
 printf "| mode | custom MiB | embree MiB | peak RSS MiB |\n|---|---:|---:|---:|\n"
 for f in small small_flat; do
-  awk -F, -v f=$f -v rss="$(cat "$OUT/$f.csv.rss")" 'NR > 1 { if ($3 == "custom:sah") c = $11; else if ($3 == "embree:high") e = $11 }
-    END { printf "| %s | %.1f | %.1f | %.0f |\n", f == "small" ? "instances" : "flattened", c / 1048576, e / 1048576, rss / 1024 }' "$OUT/$f.csv"
+  awk -F, -v f=$f -v rss="$(cat "$OUT/$f.csv.rss")" 'NR > 1 { if ($3 ~ /^custom/) c = $11; else if ($3 == "embree:high") e = $11 }
+    END { printf "| %s | %.1f | %.1f | %.0f |\n", (f == "small" ? "instances" : "flattened"), c / 1048576, e / 1048576, rss / 1024 }' "$OUT/$f.csv"
 done
 echo "outputs in $OUT"

@@ -20,7 +20,9 @@ W=os.environ['W']
 b=open(W+'/bsyms').read().split(); n=open(W+'/nsyms').read().split()
 def dem(s): return subprocess.run(['c++filt',s],capture_output=True,text=True).stdout.strip()
 def key(s):
-    d=re.sub(r'\(accel::bvh::WideBvh const&, accel::Ray const&, accel::TraceStats&(, accel::GeometryView const\*)?\)','(ARGS)',dem(s))
+    # The opaque traversals' empty filter argument (kernel.h, NoFilter) is no instruction.
+    d=re.sub(r', accel::bvh::\w+::NoFilter','',dem(s))
+    d=re.sub(r'\(accel::bvh::WideBvh const&, accel::Ray const&, accel::TraceStats&(, accel::GeometryView const\*)?\)','(ARGS)',d)
     d=re.sub(r'(true|false), (true|false), false>\(ARGS\)',r'\1, \2>(ARGS)',d); return d.replace(" [clone .constprop.0]","")
 bk={key(s):s for s in b}; nk={key(s):s for s in n}
 open(W+'/pairs','w').write('\n'.join(f"{bk[k]} {nk[k]}" for k in bk if k in nk)+'\n')

@@ -109,7 +109,9 @@ struct Backends {
 };
 
 /// Small scenes (up to 10k triangles) get the exact naive reference; larger ones Embree.
-Backends choose_backends(const Options& o, bool small) {
+/// `instanced`: the reference traces the flattened copy and the others the instances, so
+/// a backend named like the reference is checked too (against its own flat copy).
+Backends choose_backends(const Options& o, bool small, bool instanced) {
     const auto available = accel::available_backends();
     const bool have_embree = std::find(available.begin(), available.end(), "embree") != available.end();
     Backends b;
@@ -126,7 +128,7 @@ Backends choose_backends(const Options& o, bool small) {
             if (small) list += ",naive:fast";
         }
         for (auto& s : renderer::parse_backend_specs(list, o.isa_arg, o.nodes_arg))
-            if (s.label != b.ref.label) b.specs.push_back(s);
+            if (instanced || s.label != b.ref.label) b.specs.push_back(s);
     } catch (const std::invalid_argument& e) {
         fail(e.what());
     }
@@ -332,7 +334,7 @@ int main(int argc, char** argv) try {
     }
     const uint64_t tris = scene.num_triangles();
     if (tris == 0 && scene.spheres.empty()) fail(o.scene_path + ": the scene has no geometry");
-    const Backends b = choose_backends(o, tris <= 10000);
+    const Backends b = choose_backends(o, tris <= 10000, instanced.has_value());
     const std::vector<renderer::RayKind> kinds = parse_kinds(o.kinds_arg);  // before the builds: fail fast
 
     const renderer::SceneGeometry geometry(scene);
