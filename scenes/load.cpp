@@ -46,7 +46,8 @@ uint64_t scene_bytes(const Scene& s) {
     for (const Mesh& m : s.meshes)
         b += sizeof(Mesh) + bytes_of(m.positions) + bytes_of(m.indices) + bytes_of(m.normals) +
              bytes_of(m.uvs);
-    b += bytes_of(s.spheres) + bytes_of(s.materials) + bytes_of(s.lights);
+    b += bytes_of(s.spheres) + bytes_of(s.materials) + bytes_of(s.lights) + bytes_of(s.instances) +
+         bytes_of(s.prototypes);
     for (const Texture& t : s.textures) b += sizeof(Texture) + bytes_of(t.data) + bytes_of(t.levels);
     return b;
 }
