@@ -53,13 +53,19 @@ bool BvhBase::build(std::span<const GeometryView> geometry, const AccelOptions& 
     for (const PrimRef& r : refs) has_spheres_ |= geometry_[r.geom].type == GeometryType::Spheres;
     tree_ = opt.split == BvhSplit::Sbvh ? build_sbvh(geometry_, refs, leaf_size_, opt.build_threads)
                                         : build_binary(geometry_, refs, opt.split, leaf_size_, opt.build_threads);
-    // The block packing runs in parallel: on the build's threads, like the build.
-    tbb::task_arena arena(opt.build_threads > 0 ? opt.build_threads : tbb::task_arena::automatic);
+    // The block packing runs in parallel: on the build's threads, like the build (a small
+    // tree on this thread: an arena costs more than its packing, build.cpp says).
     bool compressed = false;
-    arena.execute([&] {
+    const auto pack = [&] {
         wide_ = collapse(tree_, geometry_, opt.triangle, leaf_size_, opt.leaf_prefetch);
         compressed = quantized && quantize(wide_);
-    });
+    };
+    if (refs.size() < 4096) {
+        pack();
+    } else {
+        tbb::task_arena arena(opt.build_threads > 0 ? opt.build_threads : tbb::task_arena::automatic);
+        arena.execute(pack);
+    }
 
     const TreeFacts f = tree_facts(tree_.nodes);
     const char* split = opt.split == BvhSplit::Sah ? "sah" : opt.split == BvhSplit::Sbvh ? "sbvh" : "midpoint";
