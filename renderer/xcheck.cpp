@@ -123,6 +123,40 @@ bool hit_is_marginal(const accel::Ray& ray, const RayOutcome& h, const SceneGeom
     if (view.type == accel::GeometryType::Triangles) {
         const float w = 1.0f - h.u - h.v;
         if (std::min({w, h.u, h.v}) < rel) return true;  // at an edge or vertex
+        // A cut-out's contour: where the alpha is within rounding of the cutoff, a
+        // barycentric a few ulps off (another backend's arithmetic, an instance's
+        // transform) keeps or drops the hit. Bound: the hit point's rounding (8 ulps of
+        // its magnitude: the copy's rounded vertices, the ray's and an instance
+        // transform's few operations, each within an ulp or two) over the
+        // triangle's smallest height moves the barycentrics, times the uvs' span moves
+        // uv, and a bilinear alpha changes by at most 1 per texel. Blended surfaces decide
+        // by a hash of the ray and the hit's ids, which an instance and its flattened copy
+        // name apart: any blended hit is marginal between the two.
+        if (view.masked() && view.filter == alpha_filter) {
+            const AlphaTest& a = *static_cast<const AlphaTest*>(view.filter_user);
+            if (a.mode == scenes::AlphaMode::Blend) return true;
+            if (a.mode == scenes::AlphaMode::Mask) {
+                float slack = 1e-3f;
+                if (a.texture && !a.mesh->uvs.empty()) {
+                    accel::Vec3f p0, p1, p2;
+                    accel::triangle_vertices(view, h.prim, p0, p1, p2);
+                    const float area2 = accel::length(accel::cross(p1 - p0, p2 - p0));
+                    const float longest =
+                        std::max({accel::length(p1 - p0), accel::length(p2 - p1), accel::length(p0 - p2)});
+                    const accel::Vec3f p = ray.org + ray.dir * h.t;
+                    const float mag = std::max({std::abs(p.x), std::abs(p.y), std::abs(p.z)});
+                    const float d_bary = 8.0f * 0x1p-24f * mag * longest / std::max(area2, 1e-30f);
+                    const uint32_t* idx = &a.mesh->indices[3 * size_t(h.prim)];
+                    float span = 0;
+                    for (int k = 1; k < 3; ++k) {
+                        const accel::Vec2f q = a.mesh->uvs[idx[k]], o = a.mesh->uvs[idx[0]];
+                        span = std::max({span, std::abs(q.x - o.x), std::abs(q.y - o.y)});
+                    }
+                    slack += d_bary * span * float(std::max(a.texture->width, a.texture->height));
+                }
+                if (std::abs(surface_alpha(a, h.prim, h.u, h.v) - a.cutoff) < slack) return true;
+            }
+        }
         // Grazing: the hit position along the ray is ill-conditioned.
         const accel::Vec3f n = accel::normalize(h.ng);
         if (std::abs(accel::dot(n, dn)) < 1e-3f) return true;
