@@ -68,6 +68,28 @@ void Placement::point(const Vec3f& p, const Vec3f& p_err, Vec3f& out, Vec3f& out
 
 namespace {
 
+/// The hit's texture coordinates, interpolated from the mesh's, and for textured
+/// materials the triangle's dp/du and dp/dv from the mesh's own positions (pbrt-v4
+/// Triangle::InteractionFromIntersection: the 2x2 system of edge vectors against uv
+/// differences). An instance's are those of its prototype's triangle, carried by L.
+inline void mesh_uv(const scenes::Scene& scene, const scenes::Mesh& m, const uint32_t* idx, float u, float v,
+                    Interaction& it) {
+    if (m.uvs.empty()) return;
+    const float w0 = 1.0f - u - v;
+    const Vec2f a = m.uvs[idx[0]], b = m.uvs[idx[1]], c = m.uvs[idx[2]];
+    it.uv = {a.x * w0 + b.x * u + c.x * v, a.y * w0 + b.y * u + c.y * v};
+    if (it.material < scene.materials.size() && is_textured(scene.materials[it.material])) {
+        const Vec3f e1 = m.positions[idx[1]] - m.positions[idx[0]];
+        const Vec3f e2 = m.positions[idx[2]] - m.positions[idx[0]];
+        const float du1 = b.x - a.x, dv1 = b.y - a.y, du2 = c.x - a.x, dv2 = c.y - a.y;
+        const float det = du1 * dv2 - dv1 * du2;
+        if (std::abs(det) > 1e-12f) {
+            it.dpdu = (e1 * dv2 - e2 * dv1) / det;
+            it.dpdv = (e2 * du1 - e1 * du2) / det;
+        }
+    }
+}
+
 /// make_interaction for a triangle of a prototype mesh hit through instance
 /// hit.inst_id: the surface quantities of the object-space triangle (the same
 /// arithmetic as a world-space one), then carried to world space. Its own function, so
@@ -100,23 +122,11 @@ void instanced_triangle(const scenes::Scene& scene, const scenes::Mesh& m, const
         const float len = accel::length(n);
         if (len > 0.0f && std::isfinite(len)) it.ns = n / len;
     }
-    if (!m.uvs.empty()) {
-        // Texture coordinates are the mesh's own, shared by every placement.
-        const Vec2f a = m.uvs[idx[0]], b = m.uvs[idx[1]], c = m.uvs[idx[2]];
-        it.uv = {a.x * w0 + b.x * hit.u + c.x * hit.v, a.y * w0 + b.y * hit.u + c.y * hit.v};
-        if (it.material < scene.materials.size() && is_textured(scene.materials[it.material])) {
-            // The object-space derivatives, then through L: dp/du of the placed surface
-            // is L times the object's (the chain rule; the translation drops out).
-            const Vec3f e1 = m.positions[idx[1]] - m.positions[idx[0]];
-            const Vec3f e2 = m.positions[idx[2]] - m.positions[idx[0]];
-            const float du1 = b.x - a.x, dv1 = b.y - a.y, du2 = c.x - a.x, dv2 = c.y - a.y;
-            const float det = du1 * dv2 - dv1 * du2;
-            if (std::abs(det) > 1e-12f) {
-                it.dpdu = place.vector((e1 * dv2 - e2 * dv1) / det);
-                it.dpdv = place.vector((e2 * du1 - e1 * du2) / det);
-            }
-        }
-    }
+    // Texture coordinates are the mesh's own, shared by every placement; dp/du of the
+    // placed surface is L times the object's (the chain rule; the translation drops out).
+    mesh_uv(scene, m, idx, hit.u, hit.v, it);
+    it.dpdu = place.vector(it.dpdu);
+    it.dpdv = place.vector(it.dpdv);
 }
 
 }  // namespace
@@ -155,22 +165,7 @@ Interaction make_interaction(const scenes::Scene& scene, const SceneGeometry& ge
             float len = accel::length(n);
             if (len > 0.0f && std::isfinite(len)) it.ns = n / len;
         }
-        if (!m.uvs.empty()) {
-            const Vec2f a = m.uvs[idx[0]], b = m.uvs[idx[1]], c = m.uvs[idx[2]];
-            it.uv = {a.x * w0 + b.x * hit.u + c.x * hit.v, a.y * w0 + b.y * hit.u + c.y * hit.v};
-            if (it.material < scene.materials.size() && is_textured(scene.materials[it.material])) {
-                // pbrt-v4 Triangle::InteractionFromIntersection: solve the 2x2 system of
-                // edge vectors against uv differences.
-                const Vec3f e1 = m.positions[idx[1]] - m.positions[idx[0]];
-                const Vec3f e2 = m.positions[idx[2]] - m.positions[idx[0]];
-                const float du1 = b.x - a.x, dv1 = b.y - a.y, du2 = c.x - a.x, dv2 = c.y - a.y;
-                const float det = du1 * dv2 - dv1 * du2;
-                if (std::abs(det) > 1e-12f) {
-                    it.dpdu = (e1 * dv2 - e2 * dv1) / det;
-                    it.dpdv = (e2 * du1 - e1 * du2) / det;
-                }
-            }
-        }
+        mesh_uv(scene, m, idx, hit.u, hit.v, it);
     }
     return it;
 }
