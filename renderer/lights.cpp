@@ -57,6 +57,19 @@ bool solid_angle_sampled(const SphericalTriangle& st) {
     return st.valid() && st.solid_angle() >= 3e-4f && st.solid_angle() <= 6.22f;
 }
 
+/// A light sample's radiance times the emission texture at barycentrics (a, b) of
+/// triangle `index` of `mesh` (its uvs interpolated as a hit's); false when nothing is
+/// left. Shared by the world-space and the instanced triangles of mesh lights.
+bool textured_emission(const scenes::Scene& scene, uint32_t texture, const scenes::Mesh& m, uint32_t index, float a,
+                       float b, Vec3f& radiance) {
+    const uint32_t* idx = &m.indices[3 * size_t(index)];
+    const Vec2f u0 = m.uvs[idx[0]], u1 = m.uvs[idx[1]], u2 = m.uvs[idx[2]];
+    const float w0 = 1.0f - a - b;
+    const Vec2f uv{u0.x * w0 + u1.x * a + u2.x * b, u0.y * w0 + u1.y * a + u2.y * b};
+    radiance = radiance * texel(scene, texture, uv);
+    return accel::max_component(radiance) > 0;
+}
+
 }  // namespace
 
 LightModel parse_light_model(const std::string& name, scenes::SceneFormat format) {
@@ -365,15 +378,9 @@ bool LightSet::sample(size_t i, const Vec3f& p, const Vec3f& n, float choice, Ve
             // rounding of the stored edges e1 = v1 - v0, e2 = v2 - v0.
             const Vec3f err = (accel::vabs(t.v0) + accel::vabs(ea) + accel::vabs(eb)) * gamma_bound(7);
             if (!finite_area(q, err, t.n, 1.0f / l.area, t.two_sided, solid_pdf)) return false;
-            if (l.texture != scenes::kNoTexture) {
-                const scenes::Mesh& m = scene_->meshes[t.mesh];
-                const uint32_t* idx = &m.indices[3 * size_t(t.index)];
-                const Vec2f u0 = m.uvs[idx[0]], u1 = m.uvs[idx[1]], u2 = m.uvs[idx[2]];
-                const float w0 = 1.0f - a - b;
-                const Vec2f uv{u0.x * w0 + u1.x * a + u2.x * b, u0.y * w0 + u1.y * a + u2.y * b};
-                out.radiance = out.radiance * texel(*scene_, l.texture, uv);
-                if (!(accel::max_component(out.radiance) > 0)) return false;
-            }
+            if (l.texture != scenes::kNoTexture &&
+                !textured_emission(*scene_, l.texture, scene_->meshes[t.mesh], t.index, a, b, out.radiance))
+                return false;
             return true;
         }
         case Kind::Sphere: {
@@ -482,15 +489,9 @@ bool LightSet::sample_instanced(const Light& l, const Vec3f& p, float choice, Ve
     out.distance = dist;
     out.pdf = solid_pdf > 0 ? solid_pdf : p_tri / w.area * dist2 / cos_l;
     if (!(std::isfinite(out.pdf) && out.pdf > 0)) return false;
-    if (l.texture != scenes::kNoTexture) {
-        const scenes::Mesh& m = scene_->meshes[t.mesh];
-        const uint32_t* idx = &m.indices[3 * size_t(t.index)];
-        const Vec2f t0 = m.uvs[idx[0]], t1 = m.uvs[idx[1]], t2 = m.uvs[idx[2]];
-        const float w0 = 1.0f - a - b;
-        const Vec2f uv{t0.x * w0 + t1.x * a + t2.x * b, t0.y * w0 + t1.y * a + t2.y * b};
-        out.radiance = out.radiance * texel(*scene_, l.texture, uv);
-        if (!(accel::max_component(out.radiance) > 0)) return false;
-    }
+    if (l.texture != scenes::kNoTexture &&
+        !textured_emission(*scene_, l.texture, scene_->meshes[t.mesh], t.index, a, b, out.radiance))
+        return false;
     return true;
 }
 
