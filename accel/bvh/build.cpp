@@ -711,7 +711,8 @@ BinaryTree build_prims(uint32_t n, BvhSplit split, uint32_t leaf_size, int threa
     // A small tree's build forks no task (Builder::build below kParallelBuild) and its
     // loops are a chunk or four: an arena of its own would cost more than the build, so it
     // runs in the caller's. Measured on 256 prototypes of 32 triangles each (a two-level
-    // scene's bottom trees, instanced.cpp): 117 us per tree with their two arenas.
+    // scene's bottom trees, instanced.cpp): 117 us per tree with their two arenas
+    // (accel/DECISIONS.md, "small builds inline").
     if (n < kParallelBuild) {
         build();
     } else {

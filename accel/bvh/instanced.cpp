@@ -145,7 +145,8 @@ bool InstancedBase::build(std::span<const GeometryView> geometry, const AccelOpt
         return iv.object_to_world.bounds(bottom_box[iv.prototype]);
     };
     // Leaves of one placement: a leaf of several costs one bottom traversal each anyway,
-    // and the top node test is what culls them.
+    // and the top node test is what culls them (accel/DECISIONS.md, "one placement per
+    // top leaf").
     BinaryTree tree = build_boxes(uint32_t(kept.size()), box_of, BvhSplit::Sah, 1, opt.build_threads);
     tbb::task_arena arena(opt.build_threads > 0 ? opt.build_threads : tbb::task_arena::automatic);
     arena.execute([&] {
