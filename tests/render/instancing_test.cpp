@@ -3,10 +3,9 @@
 // sampling of instanced emitters, alpha masks and blending through instances, and the
 // flat path left exactly as it was.
 //
-// Every test runs on each backend of accel::available_backends(); a backend whose
-// instancing is still being written (create_accelerator throws AccelError "... not
-// implemented yet") is skipped, so it is covered as soon as it traces instances. Renders
-// are compared by region means within their standard errors, never pixel by pixel.
+// Every test runs on each backend of accel::available_backends() (every one traces
+// instances). Renders are compared by region means within their standard errors, never
+// pixel by pixel.
 #include <gtest/gtest.h>
 
 #include <algorithm>
