@@ -973,11 +973,29 @@ TopClosest traverse_top(const InstancedBase& s, const Ray& ray, TraceStats& stat
             alignas(32) float dist[kWidth];
             unsigned mask = PT::test(n, box, dist);
             if (mask) {
-                // Every hit child onto the stack by insertion, farthest deepest; the
-                // nearest is popped at once (traverse's three-or-more case).
+                // One or two hit children without the sort, as traverse does.
+                int i = __builtin_ctz(mask);
+                mask &= mask - 1;
+                if (!mask) {
+                    ref = n.child[i];
+                    count = n.count[i];
+                    continue;
+                }
+                const int j = __builtin_ctz(mask);
+                if (!(mask & (mask - 1))) {
+                    const bool swap = dist[j] < dist[i];
+                    const int nearc = swap ? j : i, farc = swap ? i : j;
+                    stack[sp++] = {n.child[farc], n.count[farc], dist[farc]};
+                    ref = n.child[nearc];
+                    count = n.count[nearc];
+                    continue;
+                }
+                mask |= 1u << i;
+                // Three or more: every hit child onto the stack by insertion, farthest
+                // deepest; the nearest is popped at once (traverse's same case).
                 const uint32_t base = sp;
                 for (; mask; mask &= mask - 1) {
-                    const int i = __builtin_ctz(mask);
+                    i = __builtin_ctz(mask);
                     const Entry e{n.child[i], n.count[i], dist[i]};
                     uint32_t k = sp++;
                     while (k > base && stack[k - 1].t < e.t) {
