@@ -973,7 +973,8 @@ TopClosest traverse_top(const InstancedBase& s, const Ray& ray, TraceStats& stat
             alignas(32) float dist[kWidth];
             unsigned mask = PT::test(n, box, dist);
             if (mask) {
-                // One or two hit children without the sort, as traverse does.
+                // One or two hit children without the sort, as traverse does
+                // (accel/DECISIONS.md, "top-level one- and two-child paths").
                 int i = __builtin_ctz(mask);
                 mask &= mask - 1;
                 if (!mask) {
