@@ -25,12 +25,6 @@ struct Affine3f {
             for (int j = 0; j < 4; ++j) r.m[i][j] = a.m[i][j];
         return r;
     }
-    Mat4f to_mat4() const {
-        Mat4f r;
-        for (int i = 0; i < 3; ++i)
-            for (int j = 0; j < 4; ++j) r.m[i][j] = m[i][j];
-        return r;
-    }
     Vec3f point(const Vec3f& p) const {
         return {m[0][0] * p.x + m[0][1] * p.y + m[0][2] * p.z + m[0][3],
                 m[1][0] * p.x + m[1][1] * p.y + m[1][2] * p.z + m[1][3],
