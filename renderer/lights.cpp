@@ -90,6 +90,10 @@ Vec3f LightSet::emitted(const Interaction& it, const Vec3f& wo) const {
     // its shading normal, the side sample() draws (Tri::n below). Spheres: both sides.
     const bool two_sided = model_ == LightModel::Course || m.double_sided || it.sphere;
     if (!two_sided && accel::dot(it.ns, wo) <= 0) return Vec3f(0.0f);
+    // Where the glow map's texels under the lookup are all zero, its value is 0 exactly.
+    if (m.emission_texture < emission_zero_.size() &&
+        emission_zero_[m.emission_texture].zero(scene.textures[m.emission_texture], it.uv, it.lod, it.filter))
+        return Vec3f(0.0f);
     return m.emission * texel(scene, m.emission_texture, it);
 }
 
@@ -100,6 +104,12 @@ LightSet::LightSet(const scenes::Scene& scene, LightModel model, std::vector<std
         notes.push_back("the course's light semantics apply to COLLADA scenes: this glTF scene uses --lights=mesh");
     }
     const bool course = model_ == LightModel::Course;
+    for (const scenes::Material& m : scene.materials) {
+        const uint32_t tex = m.emission_texture;
+        if (!m.is_emissive() || tex >= scene.textures.size()) continue;
+        emission_zero_.resize(std::max(emission_zero_.size(), size_t(tex) + 1));
+        if (!emission_zero_[tex].built()) emission_zero_[tex] = ZeroTiles(scene.textures[tex]);
+    }
     // Emissive meshes: one light each; a triangle is picked by area, then sampled by
     // solid angle where near (near_triangle), else by area.
     std::vector<bool> mesh_is_light(scene.meshes.size(), false);
@@ -126,6 +136,8 @@ LightSet::LightSet(const scenes::Scene& scene, LightModel model, std::vector<std
         // A texture modulates emission only where the mesh has uvs to look it up with.
         if (!m.uvs.empty()) l.texture = scene.materials[m.material].emission_texture;
         l.first_tri = uint32_t(tris_.size());
+        l.first_prim = uint32_t(tri_of_prim_.size());
+        tri_of_prim_.resize(tri_of_prim_.size() + m.num_triangles(), kNoTri);
         float total = 0;
         for (uint32_t t = 0; t < m.num_triangles(); ++t) {
             const Vec3f a = m.positions[m.indices[3 * t]], b = m.positions[m.indices[3 * t + 1]],
@@ -143,14 +155,14 @@ LightSet::LightSet(const scenes::Scene& scene, LightModel model, std::vector<std
             const Vec3f centroid = (a + b + c) * (1.0f / 3.0f);
             float reach2 = 0;
             for (const Vec3f& v : {a, b, c}) reach2 = std::max(reach2, accel::dot(v - centroid, v - centroid));
+            tri_of_prim_[l.first_prim + t] = uint32_t(tris_.size()) - l.first_tri;
             tris_.push_back({a, b - a, c - a, ng, area, centroid, kNearReach * kNearReach * reach2, two_sided,
                              uint32_t(mi), t});
             total += area;
-            cdf_.push_back(total);
         }
         l.num_tris = uint32_t(tris_.size()) - l.first_tri;
         if (l.num_tris == 0) continue;
-        for (uint32_t i = 0; i < l.num_tris; ++i) cdf_[l.first_tri + i] /= total;
+        build_alias_table(tris_.data() + l.first_tri, l.num_tris, pick_);
         l.area = total;
         if (instanced) {
             // Placements by power: every one shares the mesh's emission, so by world
@@ -297,6 +309,42 @@ LightSet::LightSet(const scenes::Scene& scene, LightModel model, std::vector<std
     }
 }
 
+uint32_t LightSet::pick(const AliasBin* bins, uint32_t n, float u) {
+    // u's integer part in n bins picks a bin, its fraction the bin's side.
+    const float x = u * float(n);
+    const uint32_t k = std::min(uint32_t(x), n - 1);
+    return x - float(k) < bins[k].q ? k : bins[k].alias;
+}
+
+void LightSet::build_alias_table(const Tri* tris, uint32_t n, std::vector<AliasBin>& out) {
+    // Vose (1991): bins under the mean are topped up from one over it, which then joins
+    // the small or the large list; in double, so the table's probabilities are the
+    // areas' to float precision.
+    double total = 0;
+    for (uint32_t k = 0; k < n; ++k) total += double(tris[k].area);
+    std::vector<double> scaled(n);
+    std::vector<uint32_t> small, large;
+    for (uint32_t k = 0; k < n; ++k) {
+        scaled[k] = double(tris[k].area) * double(n) / total;
+        (scaled[k] < 1.0 ? small : large).push_back(k);
+    }
+    const size_t base = out.size();
+    out.resize(base + n, AliasBin{1.0f, 0});
+    while (!small.empty() && !large.empty()) {
+        const uint32_t s = small.back(), g = large.back();
+        small.pop_back();
+        out[base + s] = AliasBin{float(scaled[s]), g};
+        scaled[g] -= 1.0 - scaled[s];
+        if (scaled[g] < 1.0) {
+            large.pop_back();
+            small.push_back(g);
+        }
+    }
+    // What is left holds 1 up to rounding: it keeps itself.
+    for (uint32_t k : small) out[base + k] = AliasBin{1.0f, k};
+    for (uint32_t k : large) out[base + k] = AliasBin{1.0f, k};
+}
+
 SphericalTriangle LightSet::near_triangle(const Tri& t, const Vec3f& p) {
     const Vec3f d = p - t.centroid;
     if (!(accel::dot(d, d) < t.near2)) return {};
@@ -355,11 +403,7 @@ bool LightSet::sample(size_t i, const Vec3f& p, const Vec3f& n, float choice, Ve
         }
         case Kind::Mesh: {
             if (l.num_inst) return sample_instanced(l, p, choice, u2, out);
-            const float u = choice;
-            const float* begin = cdf_.data() + l.first_tri;
-            const size_t k = std::min<size_t>(size_t(std::upper_bound(begin, begin + l.num_tris, u) - begin),
-                                              l.num_tris - 1);
-            const Tri& t = tris_[l.first_tri + k];
+            const Tri& t = tris_[l.first_tri + pick(pick_.data() + l.first_tri, l.num_tris, choice)];
             float a = u2.x, b = u2.y;
             // Near triangles by solid angle (see solid_angle_sampled), the rest by area.
             float solid_pdf = 0;
@@ -450,10 +494,7 @@ bool LightSet::sample_instanced(const Light& l, const Vec3f& p, float choice, Ve
     if (!(p_inst > 0)) return false;
     const float lo = j ? icdf[j - 1] : 0.0f;
     const float u = std::min((choice - lo) / p_inst, 0x1.fffffep-1f);
-    const float* begin = cdf_.data() + l.first_tri;
-    const size_t k =
-        std::min<size_t>(size_t(std::upper_bound(begin, begin + l.num_tris, u) - begin), l.num_tris - 1);
-    const Tri& t = tris_[l.first_tri + k];
+    const Tri& t = tris_[l.first_tri + pick(pick_.data() + l.first_tri, l.num_tris, u)];
     const Placement place(scene_->instances[inst_ids_[l.first_inst + j]].object_to_world);
     const Tri w = placed(t, place);
     const float p_tri = p_inst * t.area / l.area;  // P(placement) P(triangle)
@@ -500,11 +541,12 @@ float LightSet::pdf(size_t i, const Vec3f& p, const Vec3f& n, const Vec3f& wi, f
     const Light& l = lights_[i];
     switch (l.kind) {
         case Kind::Mesh: {
-            // The triangle hit, found by its index in the mesh (tris_ keeps mesh order and
-            // skips only degenerate triangles, which no ray hits).
-            const auto begin = tris_.begin() + l.first_tri, end = begin + l.num_tris;
-            const auto it = std::lower_bound(begin, end, prim, [](const Tri& t, uint32_t v) { return t.index < v; });
-            if (it == end || it->index != prim) return 0.0f;
+            // The triangle hit, by its index in the mesh (a degenerate one, which no ray
+            // hits, has none).
+            if (prim >= scene_->meshes[tris_[l.first_tri].mesh].num_triangles()) return 0.0f;
+            const uint32_t k = tri_of_prim_[l.first_prim + prim];
+            if (k == kNoTri) return 0.0f;
+            const Tri* it = &tris_[l.first_tri + k];
             if (l.num_inst) {
                 // sample_instanced's density: the placement found by its id (ascending).
                 const uint32_t* ids = inst_ids_.data() + l.first_inst;

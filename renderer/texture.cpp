@@ -293,6 +293,50 @@ float lookup_alpha(const Texture& t, const Vec2f& uv) {
     return a;
 }
 
+ZeroTiles::ZeroTiles(const Texture& t) {
+    if (t.empty()) return;
+    const Texture::Level& l = t.levels[0];
+    tiles_x_ = (l.width + kTile - 1) / kTile;
+    tiles_y_ = (l.height + kTile - 1) / kTile;
+    const size_t row = size_t(tiles_x_) + 1;
+    sat_.assign(row * (size_t(tiles_y_) + 1), 0);
+    const size_t tb = t.texel_bytes();
+    std::vector<uint8_t> nonzero(size_t(tiles_x_) * tiles_y_, 0);
+    for (uint32_t y = 0; y < l.height; ++y) {
+        const uint8_t* p = t.data.data() + l.offset + size_t(y) * l.width * tb;
+        for (uint32_t x = 0; x < l.width; ++x, p += tb)
+            for (size_t b = 0; b < tb; ++b)
+                if (p[b]) {
+                    nonzero[size_t(y / kTile) * tiles_x_ + x / kTile] = 1;
+                    break;
+                }
+    }
+    for (uint32_t y = 0; y < tiles_y_; ++y)
+        for (uint32_t x = 0; x < tiles_x_; ++x)
+            sat_[(y + 1) * row + x + 1] = nonzero[size_t(y) * tiles_x_ + x] + sat_[y * row + x + 1] +
+                                          sat_[(y + 1) * row + x] - sat_[y * row + x];
+}
+
+bool ZeroTiles::zero(const Texture& t, const Vec2f& uv, float lod, TextureFilter f) const {
+    if (sat_.empty() || t.empty()) return false;
+    const Texture::Level& l = t.levels[0];
+    if ((l.width + kTile - 1) / kTile != tiles_x_ || (l.height + kTile - 1) / kTile != tiles_y_) return false;
+    // The coarsest level the filter reads. A texel of level k averages the 2^k x 2^k
+    // texels of level 0 under it (gltf_image.cpp), and the texels around uv at level k
+    // lie within 2.5 of its texels of uv: so within 2.5 * 2^k + 1 texels of level 0
+    // (the rounding of a level's size down only moves them toward uv).
+    const float level = is_mip_filter(f) ? mip_level(t, lod) : 0.0f;
+    const float reach = 2.5f * std::exp2(std::ceil(level)) + 1.0f;
+    const float cx = wrap01(uv.x) * float(l.width), cy = wrap01(uv.y) * float(l.height);
+    const float x0 = cx - reach, x1 = cx + reach, y0 = cy - reach, y1 = cy + reach;
+    // A support that wraps round an edge: not worth the split.
+    if (!(x0 >= 0.0f && y0 >= 0.0f && x1 < float(l.width) && y1 < float(l.height))) return false;
+    const size_t row = size_t(tiles_x_) + 1;
+    const uint32_t tx0 = uint32_t(x0) / kTile, tx1 = uint32_t(x1) / kTile + 1;
+    const uint32_t ty0 = uint32_t(y0) / kTile, ty1 = uint32_t(y1) / kTile + 1;
+    return sat_[ty1 * row + tx1] - sat_[ty0 * row + tx1] - sat_[ty1 * row + tx0] + sat_[ty0 * row + tx0] == 0;
+}
+
 Texel4 lookup(const Texture& t, const Vec2f& uv, const UvFootprint& duv, TextureFilter filter) {
     return lookup(t, uv, uv_lod(duv), filter);
 }

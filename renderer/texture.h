@@ -22,6 +22,7 @@
 
 #include <cstdint>
 #include <string>
+#include <vector>
 
 #include "accel/math.h"
 #include "scenes/scene.h"
@@ -74,6 +75,27 @@ Texel4 lookup(const scenes::Texture& t, const Vec2f& uv, const UvFootprint& duv,
 /// the texture stores none): the alpha test of masked geometry, called per candidate hit
 /// (renderer/scene_geometry.h), where decoding the colour channels too cost the time.
 float lookup_alpha(const scenes::Texture& t, const Vec2f& uv);
+
+/// Where a texture holds only zero texels, by 16x16-texel tiles of level 0: a
+/// summed-area table (Crow, SIGGRAPH 1984) of the tiles with a nonzero texel, so any
+/// rectangle is answered with four reads. A lookup whose support lies in zero tiles
+/// returns exactly 0 (the pyramid's levels average level 0), so a glow map, black over
+/// most of a model, is read only where it glows (the emission check of
+/// LightSet::emitted; "zero tiles" in renderer/README.md).
+class ZeroTiles {
+public:
+    ZeroTiles() = default;
+    explicit ZeroTiles(const scenes::Texture& t);
+    /// True when lookup(t, uv, lod, filter) reads only zero texels; false when it may
+    /// not (and for a texture this was not built from).
+    bool zero(const scenes::Texture& t, const Vec2f& uv, float lod, TextureFilter filter) const;
+    bool built() const { return !sat_.empty(); }
+
+private:
+    static constexpr uint32_t kTile = 16;
+    uint32_t tiles_x_ = 0, tiles_y_ = 0;
+    std::vector<uint32_t> sat_;  ///< (tiles_x_ + 1) x (tiles_y_ + 1), row 0 and column 0 zero
+};
 
 /// One texel of one level, unfiltered (x < that level's width, y < its height).
 Texel4 fetch(const scenes::Texture& t, uint32_t level, uint32_t x, uint32_t y);

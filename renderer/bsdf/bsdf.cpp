@@ -7,7 +7,8 @@
 
 namespace renderer::bsdf {
 
-Bsdf make_bsdf(const scenes::Scene& scene, const scenes::Material& m, const Interaction& it, bool front) {
+Bsdf make_bsdf(const scenes::Scene& scene, const scenes::Material& m, const Interaction& it, bool front,
+               const Vec3f* base_colour) {
     using scenes::BsdfKind;
     switch (m.bsdf) {
         case BsdfKind::Diffuse:
@@ -19,7 +20,7 @@ Bsdf make_bsdf(const scenes::Scene& scene, const scenes::Material& m, const Inte
         case BsdfKind::Microfacet:
             return Bsdf(RoughConductor{Beckmann{std::max(1e-3f, m.alpha)}, m.eta, m.k});
         case BsdfKind::MetallicRoughness: {
-            const Vec3f base = m.albedo * texel(scene, m.albedo_texture, it);
+            const Vec3f base = base_colour ? *base_colour : m.albedo * texel(scene, m.albedo_texture, it);
             float metallic = m.metallic, roughness = m.roughness, transmission = m.transmission;
             if (m.metallic_roughness_texture != scenes::kNoTexture) {
                 const Texel4 mr = texel4(scene, m.metallic_roughness_texture, it);

@@ -47,7 +47,10 @@ private:
 
 /// The BSDF of material `m` at hit `it` (textures looked up at its uv). `front`: wo lies on
 /// the side the geometric normal points to (outside, for a dielectric's index).
-Bsdf make_bsdf(const scenes::Scene& scene, const scenes::Material& m, const Interaction& it, bool front);
+/// `base_colour`, when given, is the material's albedo times its texture at `it`, already
+/// looked up (the camera hit's albedo AOV), and is not read again.
+Bsdf make_bsdf(const scenes::Scene& scene, const scenes::Material& m, const Interaction& it, bool front,
+               const Vec3f* base_colour = nullptr);
 
 /// The shading normal `it.ns` perturbed by the material's tangent-space normal map
 /// (glTF normalTexture: RG in [0,1] -> [-1,1], z = sqrt(1 - x^2 - y^2), x and y scaled

@@ -144,11 +144,16 @@ Vec3f PathIntegrator::li(const accel::Ray& camera_ray, SampleContext& ctx) const
             if (unlit_ && m.unlit) break;
             if (m.bsdf != scenes::BsdfKind::Diffuse) {
                 if (m.is_emissive() && !m.emitter_reflects) break;
-                if (!scatter(m, bounce, it, wo, beta, eta_scale, L, ctx)) break;
+                // At the camera hit the albedo AOV is the glTF material's base colour
+                // (aov_albedo), looked up already: one texture lookup less per sample.
+                const bool aov_is_base = bounce == 1 && m.bsdf == scenes::BsdfKind::MetallicRoughness;
+                if (!scatter(m, bounce, it, wo, beta, eta_scale, L, ctx, aov_is_base ? &ctx.aov.albedo : nullptr))
+                    break;
                 continue;
             }
         }
-        const Vec3f albedo = reflectance(scene_, it);
+        // At the camera hit, the albedo AOV is this very value.
+        const Vec3f albedo = bounce == 1 ? ctx.aov.albedo : reflectance(scene_, it);
         if (is_black(albedo)) break;
         // Shade the side the ray arrived on (two-sided diffuse surfaces).
         if (accel::dot(it.ng, wo) < 0) it.ng = -it.ng;
@@ -188,14 +193,14 @@ Vec3f PathIntegrator::li(const accel::Ray& camera_ray, SampleContext& ctx) const
 }
 
 bool PathIntegrator::scatter(const scenes::Material& m, int bounce, Interaction& it, Vec3f& wo, Vec3f& beta,
-                             float& eta_scale, Vec3f& L, SampleContext& ctx) const {
+                             float& eta_scale, Vec3f& L, SampleContext& ctx, const Vec3f* base_colour) const {
     // The local frame faces wo; `front` remembers which side of the surface that is, for
     // a dielectric's relative index.
     const bool front = accel::dot(it.ng, wo) > 0;
     it.ns = bsdf::mapped_normal(scene_, m, it);
     if (!front) it.ng = -it.ng;
     if (accel::dot(it.ns, it.ng) < 0) it.ns = -it.ns;
-    const bsdf::Bsdf b = bsdf::make_bsdf(scene_, m, it, front);
+    const bsdf::Bsdf b = bsdf::make_bsdf(scene_, m, it, front, base_colour);
     Vec3f t, bt;
     onb(it.ns, t, bt);
     const Vec3f wo_l(accel::dot(wo, t), accel::dot(wo, bt), accel::dot(wo, it.ns));

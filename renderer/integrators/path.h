@@ -29,8 +29,9 @@ private:
     /// One vertex on a non-diffuse material: direct light through its BSDF (skipped for
     /// delta lobes), then a BSDF-sampled bounce. Updates it, wo, beta; false ends the path.
     /// eta_scale: the product of eta^2 over the refractions so far (for the roulette).
+    /// base_colour: make_bsdf's, where already looked up.
     bool scatter(const scenes::Material& m, int bounce, Interaction& it, Vec3f& wo, Vec3f& beta,
-                 float& eta_scale, Vec3f& L, SampleContext& ctx) const;
+                 float& eta_scale, Vec3f& L, SampleContext& ctx, const Vec3f* base_colour = nullptr) const;
     Vec3f direct_bsdf(const Interaction& it, int bounce, const Vec3f& wo_l, const Vec3f& t, const Vec3f& bt,
                       const bsdf::Bsdf& b, SampleContext& ctx) const;
     /// Is the light sample's shadow ray (segment, or ray for infinitely far lights) blocked?
