@@ -326,7 +326,7 @@ bool ZeroTiles::zero(const Texture& t, const Vec2f& uv, float lod, TextureFilter
     // lie within 2.5 of its texels of uv: so within 2.5 * 2^k + 1 texels of level 0
     // (the rounding of a level's size down only moves them toward uv).
     const float level = is_mip_filter(f) ? mip_level(t, lod) : 0.0f;
-    const float reach = 2.5f * std::exp2(std::ceil(level)) + 1.0f;
+    const float reach = 2.5f * float(1u << std::min(30, int(std::ceil(level)))) + 1.0f;
     const float cx = wrap01(uv.x) * float(l.width), cy = wrap01(uv.y) * float(l.height);
     const float x0 = cx - reach, x1 = cx + reach, y0 = cy - reach, y1 = cy + reach;
     // A support that wraps round an edge: not worth the split.

@@ -249,6 +249,48 @@ TEST_F(FormFactor, LightPdfIsTheSamplingDensity) {
     EXPECT_GT(far, 300);
 }
 
+// An emissive mesh's triangles are picked in proportion to their areas (the alias table
+// of LightSet::pick): a chi-square test over eight triangles whose areas span 1 to 128.
+TEST_F(FormFactor, LightTrianglesArePickedByArea) {
+    scenes::Scene scene;
+    scenes::Material light;
+    light.emission = Vec3f(Le);
+    light.double_sided = true;
+    scene.materials = {light};
+    scenes::Mesh m;
+    m.material = 0;
+    std::vector<double> area;
+    for (uint32_t k = 0; k < 8; ++k) {
+        // Right triangles side by side in the plane z = 10, legs sqrt(2 * 2^k).
+        const float leg = std::sqrt(2.0f * float(1u << k)), x = 20.0f * float(k);
+        const uint32_t base = uint32_t(m.positions.size());
+        m.positions.insert(m.positions.end(), {Vec3f(x, 0, 10), Vec3f(x + leg, 0, 10), Vec3f(x, leg, 10)});
+        m.indices.insert(m.indices.end(), {base, base + 1, base + 2});
+        area.push_back(double(1u << k));
+    }
+    m.positions.push_back(Vec3f(0.0f));  // the padding element Mesh keeps
+    scene.meshes.push_back(m);
+    std::vector<std::string> notes;
+    const LightSet lights(scene, LightModel::Mesh, notes);
+    ASSERT_EQ(lights.size(), 1u);
+    Rng rng(17, 0);
+    std::vector<int> count(8, 0);
+    const int n = 200000;
+    for (int i = 0; i < n; ++i) {
+        LightSample ls;
+        // Far below: every triangle is sampled by area.
+        ASSERT_TRUE(lights.sample(0, Vec3f(70.0f, 0.0f, -1000.0f), Vec3f(0, 0, 1), rng, ls));
+        ++count[size_t(std::clamp(int(ls.target.x / 20.0f), 0, 7))];
+    }
+    double chi2 = 0;
+    for (size_t k = 0; k < 8; ++k) {
+        const double expected = n * area[k] / 255.0;
+        chi2 += (count[k] - expected) * (count[k] - expected) / expected;
+    }
+    // 7 degrees of freedom: P(chi2 > 24.3) = 0.001.
+    EXPECT_LT(chi2, 24.3);
+}
+
 TEST_F(FormFactor, HemisphereSamplingMatchesAndIsNoisier) {
     IntegratorSettings is;
     is.name = "direct";

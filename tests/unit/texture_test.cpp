@@ -293,3 +293,44 @@ TEST(TextureFurnace, TexturedEnclosureConvergesToLeOverOneMinusAlbedo) {
         EXPECT_NEAR(e.mean, expected, 3.0 * e.se + 1e-4) << texture_filter_name(filter) << " se " << e.se;
     }
 }
+
+// A glow map is black but for a few spots. Where ZeroTiles says a lookup reads only zero
+// texels, the lookup is exactly zero, under every filter and footprint (its claim is
+// what LightSet::emitted skips the lookup on); and it says so for most of the black.
+TEST(TextureZeroTiles, ZeroOnlyWhereTheLookupIsZero) {
+    // Not a multiple of the 16-texel tile, and not square.
+    const uint32_t w = 250, h = 190;
+    Texture t = Texture::make("glow", w, h, TexelFormat::U8, "RGB");
+    t.srgb = true;
+    auto light = [&](uint32_t x, uint32_t y) {
+        for (int c = 0; c < 3; ++c) t.data[(size_t(y) * w + x) * 3 + size_t(c)] = uint8_t(60 + 60 * c);
+    };
+    for (uint32_t y = 100; y < 103; ++y)
+        for (uint32_t x = 40; x < 43; ++x) light(x, y);
+    light(200, 20);
+    light(249, 189);  // a corner, so that wrapping supports meet it
+    scenes::gltf_detail::build_mip_pyramid(t);
+    const ZeroTiles zt(t);
+    std::mt19937 rng(5);
+    std::uniform_real_distribution<float> u01(0.0f, 1.0f);
+    int zero = 0, total = 0;
+    for (int i = 0; i < 20000; ++i) {
+        const Vec2f uv{u01(rng) * 3.0f - 1.0f, u01(rng) * 3.0f - 1.0f};
+        const float width = std::exp2(u01(rng) * 10.0f - 2.0f) / float(w);  // 1/4 to 256 texels
+        const float lod = uv_lod(UvFootprint{width, 0.0f, 0.0f, width * u01(rng)});
+        for (TextureFilter f : {TextureFilter::Nearest, TextureFilter::Bilinear, TextureFilter::Stochastic,
+                                TextureFilter::Trilinear}) {
+            ++total;
+            if (!zt.zero(t, uv, lod, f)) continue;
+            ++zero;
+            const Texel4 v = lookup(t, uv, lod, f);
+            ASSERT_EQ(v.r + v.g + v.b, 0.0f) << "uv " << uv.x << " " << uv.y << " lod " << lod;
+        }
+    }
+    EXPECT_GT(zero, total / 2) << "zero tiles should answer for most of a black texture";
+    // On a spot, never.
+    EXPECT_FALSE(zt.zero(t, {41.5f / float(w), 101.5f / float(h)}, kNoFootprint, TextureFilter::Nearest));
+    EXPECT_FALSE(zt.zero(t, {200.5f / float(w), 20.5f / float(h)}, kNoFootprint, TextureFilter::Trilinear));
+    // A ZeroTiles of another texture answers nothing.
+    EXPECT_FALSE(ZeroTiles().zero(t, {0.5f, 0.5f}, kNoFootprint, TextureFilter::Nearest));
+}
