@@ -142,6 +142,17 @@ protected:
         return rho / M_PI * Le * E;
     }
 
+    /// A scene whose one material is a two-sided emitter of radiance Le, for LightSet's
+    /// own tests.
+    scenes::Scene emitter_scene() const {
+        scenes::Scene scene;
+        scenes::Material light;
+        light.emission = Vec3f(Le);
+        light.double_sided = true;
+        scene.materials = {light};
+        return scene;
+    }
+
     /// The floor lit by the panel mesh, the area light, or both (the CS184 files' two
     /// descriptions of one light).
     World make_scene(bool panel, bool rect, LightModel model, bool double_sided, const IntegratorSettings& is) const {
@@ -210,11 +221,7 @@ TEST_F(FormFactor, NearLightIsSampledWithoutSpikes) {
 // Multiple importance sampling needs LightSet::pdf to return the density sample() drew
 // the direction with, near (by solid angle) and far (by area), on every triangle.
 TEST_F(FormFactor, LightPdfIsTheSamplingDensity) {
-    scenes::Scene scene;
-    scenes::Material light;
-    light.emission = Vec3f(Le);
-    light.double_sided = true;
-    scene.materials = {light};
+    scenes::Scene scene = emitter_scene();
     // Two triangles of different areas, so the pick by area matters.
     scene.meshes.push_back(quad({-hw, -hl, h}, {-hw, hl, h}, {hw, hl, h}, {0.2f, -hl, h}, 0));
     std::vector<std::string> notes;
@@ -252,11 +259,7 @@ TEST_F(FormFactor, LightPdfIsTheSamplingDensity) {
 // An emissive mesh's triangles are picked in proportion to their areas (the alias table
 // of LightSet::pick): a chi-square test over eight triangles whose areas span 1 to 128.
 TEST_F(FormFactor, LightTrianglesArePickedByArea) {
-    scenes::Scene scene;
-    scenes::Material light;
-    light.emission = Vec3f(Le);
-    light.double_sided = true;
-    scene.materials = {light};
+    scenes::Scene scene = emitter_scene();
     scenes::Mesh m;
     m.material = 0;
     std::vector<double> area;
