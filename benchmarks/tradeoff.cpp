@@ -233,6 +233,7 @@ Errors errors(const renderer::Image& img, const Reference& ref) {
 struct Options {
     std::vector<std::string> scene_paths;
     std::string csv_path, ref_dir = std::string(PT_SOURCE_DIR_BENCH) + "/benchmarks/results/reference";
+    std::string lights;  ///< --lights; empty: the scene format's default
     std::string studies_arg = "spp,sampling,light_samples,adaptive,rr,sampler_rr,max_depth,backend,triangle_test";
     int width = 160, height = 120, ref_spp = 4096, threads = 0, repeats = 1;
     bool quick = false;
@@ -244,6 +245,9 @@ void add_options(CLI::App& app, Options& o) {
     app.add_option("--scene", o.scene_paths, "Scene (repeatable; default: the shared CBspheres_lambertian and CBbunny)");
     app.add_option("--csv", o.csv_path, "Write the rows as CSV");
     app.add_option("--ref-dir", o.ref_dir, "Where references are cached (default benchmarks/results/reference)");
+    app.add_option("--lights", o.lights,
+                   "Light semantics, course | mesh (default: the scene's own, course for COLLADA); a "
+                   "reference is cached per light model, so give each its own --ref-dir");
     app.add_option("--studies", o.studies_arg, "Comma-separated studies to run (default all)");
     app.add_option("--width", o.width, "Image width (default 160; the course's 480x360 field of view is kept)");
     app.add_option("--height", o.height, "Image height (default 120)");
@@ -297,7 +301,11 @@ void setup_world(World& w, const std::string& path, const Options& o) {
     // The price: under course semantics -H converges to a slightly different image (the
     // panel's upper side lights the ceiling under -H only), so the hemisphere rows carry
     // that bias against the light-sampled reference.
-    w.model = renderer::parse_light_model("", w.scene.format);
+    try {
+        w.model = renderer::parse_light_model(o.lights, w.scene.format);
+    } catch (const std::invalid_argument& e) {
+        fail(e.what());
+    }
     w.lights = std::make_unique<renderer::LightSet>(w.scene, w.model, w.notes);
     // The course's 480x360 framing, rendered at width x height (as the transport tests do).
     renderer::CameraOverrides ov;

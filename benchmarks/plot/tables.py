@@ -3,6 +3,8 @@
 
   tables.py accel ACCEL_CSV > accel_table.md
   tables.py tradeoff TRADEOFF_CSV > tradeoff_table.md
+  tables.py sampler_rr TRADEOFF_CSV   tradeoff's sampler_rr study: every sampler under
+                                  both roulettes, efficiency at 4, 16 and 64 spp
   tables.py runs ACCEL_CSV...     the one-thread table over several runs of one command
   tables.py threads ACCEL_CSV...  thread scaling per run, beside the machine probe
   tables.py plugins ACCEL_CSV...  our BVH as a plugin against it compiled in, and the
@@ -54,26 +56,39 @@ def accel(path):
                   f" | {scale} | {t_ray} | {n_ray} | {float(any_r['build_ms']):.1f} | {mem} |")
 
 
-def tradeoff(path):
+def _tradeoff_rows(path):
     rows = list(csv.DictReader(open(path)))
     for r in rows:
         for k in ("seconds", "rel_rmse_debiased", "rel_rmse_shadow_debiased", "param"):
             r[k] = float(r[k])
-    scenes = list(OrderedDict.fromkeys(r["scene"] for r in rows))
+    return rows, list(OrderedDict.fromkeys(r["scene"] for r in rows))
 
-    def eff(r, col):
-        e = r[col]
-        return 1.0 / (e * e * r["seconds"]) if e > 0 and r["seconds"] > 0 else float("nan")
 
+def eff(r, col):
+    e = r[col]
+    return 1.0 / (e * e * r["seconds"]) if e > 0 and r["seconds"] > 0 else float("nan")
+
+
+def _plain_spp_efficiency(rs):
+    """Median efficiency of plain light sampling's 16..1024 spp points, per error column;
+    None when the scene has no spp study."""
+    base = [r for r in rs if r["study"] == "spp" and r["param"] >= 16]
+    if not base:
+        return None
+    b = {}
+    for col in ("rel_rmse_debiased", "rel_rmse_shadow_debiased"):
+        v = sorted(eff(r, col) for r in base)
+        b[col] = v[len(v) // 2]
+    return b
+
+
+def tradeoff(path):
+    rows, scenes = _tradeoff_rows(path)
     for sc in scenes:
         rs = [r for r in rows if r["scene"] == sc]
-        base = [r for r in rs if r["study"] == "spp" and r["param"] >= 16]
-        if not base:
+        b = _plain_spp_efficiency(rs)
+        if not b:
             continue
-        b = {}
-        for col in ("rel_rmse_debiased", "rel_rmse_shadow_debiased"):
-            v = sorted(eff(r, col) for r in base)
-            b[col] = v[len(v) // 2]
         print(f"\n#### {sc}\n")
         print("Plain light sampling, 1 light sample, depth 100, rr 0.65 reaches relative RMSE "
               + ", ".join(f"{e} in ~{1 / (b['rel_rmse_debiased'] * e * e):.2f} s" for e in (0.1, 0.05, 0.02))
@@ -98,6 +113,34 @@ def tradeoff(path):
             }.get(r["study"], r["label"])
             print(f"| {r['study']} | {setting}{' (biased)' if floor else ''} | {r['spp']} | {r['seconds']:.3f} | "
                   f"{r['rel_rmse_debiased']:.4f} | {r['rel_rmse_shadow_debiased']:.4f} | {ei:.2f} / {es:.2f} |")
+
+
+def sampler_rr(path):
+    """Every sampler under both roulettes (tradeoff's sampler_rr study): efficiency at 4,
+    16 and 64 spp relative to plain light sampling (independent samples, the course's rr
+    0.65), image and cast shadows, and the image's error and time at 64 spp."""
+    rows, scenes = _tradeoff_rows(path)
+    for sc in scenes:
+        rs = [r for r in rows if r["scene"] == sc]
+        b = _plain_spp_efficiency(rs)
+        pts = [r for r in rs if r["study"] == "sampler_rr"]
+        if not b or not pts:
+            continue
+        print(f"\n#### {sc}\n")
+        print("| sampler | roulette | efficiency, image: 4 / 16 / 64 spp | shadows: 4 / 16 / 64 spp "
+              "| rel RMSE at 64 spp | seconds at 64 spp |")
+        print("|---|---|---|---|---:|---:|")
+        for label in OrderedDict.fromkeys(r["label"] for r in pts):
+            by = {int(r["spp"]): r for r in pts if r["label"] == label}
+            name, rr = label.split(" rr=")
+
+            def effs(col):
+                return " / ".join(f"{eff(by[n], col) / b[col]:.2f}" if n in by else "-" for n in (4, 16, 64))
+
+            r64 = by.get(64)
+            at64 = f"{r64['rel_rmse_debiased']:.4f} | {r64['seconds']:.3f}" if r64 else "- | -"
+            print(f"| {name} | {'throughput' if rr == 'throughput' else 'fixed ' + rr} | "
+                  f"{effs('rel_rmse_debiased')} | {effs('rel_rmse_shadow_debiased')} | {at64} |")
 
 
 def _index(path):
@@ -204,11 +247,11 @@ def threads(paths, target=1.8):
 
 
 if __name__ == "__main__":
-    if len(sys.argv) < 3 or sys.argv[1] not in ("accel", "tradeoff", "runs", "threads", "plugins"):
+    if len(sys.argv) < 3 or sys.argv[1] not in ("accel", "tradeoff", "sampler_rr", "runs", "threads", "plugins"):
         sys.exit(__doc__)
-    if sys.argv[1] in ("accel", "tradeoff"):
+    if sys.argv[1] in ("accel", "tradeoff", "sampler_rr"):
         if len(sys.argv) != 3:
             sys.exit(__doc__)
-        (accel if sys.argv[1] == "accel" else tradeoff)(sys.argv[2])
+        {"accel": accel, "tradeoff": tradeoff, "sampler_rr": sampler_rr}[sys.argv[1]](sys.argv[2])
     else:
         {"runs": runs, "threads": threads, "plugins": plugins}[sys.argv[1]](sys.argv[2:])
