@@ -86,8 +86,10 @@ public:
     }
 
     /// Samples light `i` as seen from point `p` with unit normal `n` (the environment is
-    /// sampled by a cosine lobe around n), from `choice` (which triangle of an emissive
-    /// mesh) and `u` (the point). Returns false when the sample carries nothing.
+    /// sampled by a cosine lobe around n), from `choice` (which placement of an instanced
+    /// emissive mesh) and `u` (the point; an emissive mesh picks its triangle with u.x and
+    /// reuses what is left of it, as Cycles does, so that a stratified u stays stratified
+    /// over the whole light). Returns false when the sample carries nothing.
     bool sample(size_t i, const Vec3f& p, const Vec3f& n, float choice, Vec2f u, LightSample& out) const;
     /// The same from a stream: a choice number only where uses_choice(i), then the point.
     bool sample(size_t i, const Vec3f& p, const Vec3f& n, Rng& rng, LightSample& out) const {
@@ -96,8 +98,9 @@ public:
         const float u0 = rng.next_float();
         return sample(i, p, n, c, Vec2f{u0, rng.next_float()}, out);
     }
-    /// Does sampling light i read its choice number (an emissive mesh picks a triangle)?
-    bool uses_choice(size_t i) const { return lights_[i].kind == Kind::Mesh; }
+    /// Does sampling light i read its choice number (an instanced emissive mesh picks a
+    /// placement)?
+    bool uses_choice(size_t i) const { return lights_[i].kind == Kind::Mesh && lights_[i].num_inst > 0; }
     /// Does sampling light i read its point numbers (delta lights read none)?
     bool uses_point(size_t i) const { return !is_delta(i); }
 
@@ -189,8 +192,9 @@ private:
         uint32_t alias;
     };
     static constexpr uint32_t kNoTri = ~0u;
-    /// Index in [0, n) drawn from bins[0, n) by u in [0, 1).
-    static uint32_t pick(const AliasBin* bins, uint32_t n, float u);
+    /// Index in [0, n) drawn from bins[0, n) by u in [0, 1). `rest`: u's unused part,
+    /// uniform in [0, 1) given the index (pbrt-v4's uRemapped), for the point.
+    static uint32_t pick(const AliasBin* bins, uint32_t n, float u, float& rest);
     /// Appends the n bins that pick tris[k] with probability area / total area.
     static void build_alias_table(const Tri* tris, uint32_t n, std::vector<AliasBin>& out);
 

@@ -9,12 +9,13 @@ namespace renderer {
 
 namespace {
 
+/// The bytes reversed by one instruction (bswap), then the bits within each byte: three
+/// swap steps instead of five, on every scrambled draw.
 uint32_t reverse_bits(uint32_t v) {
+    v = __builtin_bswap32(v);
     v = ((v >> 1) & 0x55555555u) | ((v & 0x55555555u) << 1);
     v = ((v >> 2) & 0x33333333u) | ((v & 0x33333333u) << 2);
-    v = ((v >> 4) & 0x0F0F0F0Fu) | ((v & 0x0F0F0F0Fu) << 4);
-    v = ((v >> 8) & 0x00FF00FFu) | ((v & 0x00FF00FFu) << 8);
-    return (v >> 16) | (v << 16);
+    return ((v >> 4) & 0x0F0F0F0Fu) | ((v & 0x0F0F0F0Fu) << 4);
 }
 
 /// Laine and Karras's hash as Burley 2020 (listing 2) tunes it: bit k of the result is

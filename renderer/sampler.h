@@ -52,7 +52,9 @@ namespace dims {
 inline constexpr uint32_t kPixel = 0;  ///< 2D: position inside the pixel
 inline constexpr uint32_t kLens = 2;   ///< 2D: point on the thin lens
 /// Per path vertex (bounce b = 1, 2, ...): bounce(b) + one of these.
-inline constexpr uint32_t kLightChoice = 0;  ///< 1D: which triangle of an emissive mesh
+/// 1D: which placement of an instanced emissive mesh (a mesh's triangle is picked with
+/// the first number of kLightPoint, LightSet::sample)
+inline constexpr uint32_t kLightChoice = 0;
 inline constexpr uint32_t kLightPoint = 1;   ///< 2D: the point on the light (or -H's direction)
 inline constexpr uint32_t kBsdfLobe = 3;     ///< 1D: which lobe of a BSDF
 inline constexpr uint32_t kBsdfDir = 4;      ///< 2D: the BSDF's (or diffuse bounce's) direction
