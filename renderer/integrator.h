@@ -54,9 +54,13 @@ struct IntegratorSettings {
     /// undoes the 1/eta^2 radiance scaling of refractions (pbrt-v4 PathIntegrator), so a
     /// path through mirror or glass keeps going while a dim one stops early. A value in
     /// (0, 1]: the course's fixed continuation probability (0.65 in CS184; 1 = no roulette).
+    /// kSqrtThroughputRoulette: Cycles' gentler rule, continue with probability
+    /// min(1, sqrt(max component of beta * eta_scale)) (path_state_continuation_probability).
     static constexpr float kThroughputRoulette = -1.0f;
+    static constexpr float kSqrtThroughputRoulette = -2.0f;
     float rr_continue = kThroughputRoulette;
     bool throughput_roulette() const { return rr_continue < 0.0f; }
+    bool sqrt_roulette() const { return rr_continue == kSqrtThroughputRoulette; }
     std::string only;           ///< --only=direct|indirect ("" = both)
     /// --offset: how secondary rays leave surfaces (renderer/spawn.h). ErrorBound offsets
     /// by the hit point's floating-point error bound (pbrt-v4 6.8); Epsilon is the plain

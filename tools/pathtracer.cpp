@@ -168,10 +168,11 @@ void add_scene_options(CLI::App& app, Options& o) {
     app.add_option("--seed", o.rs.seed, "Random seed (images are identical for any -t)");
     app.add_option("--rr", o.rr,
                    "Russian roulette from the second bounce: throughput (default; a path survives "
-                   "with probability equal to its throughput, pbrt-v4's rule) | P, a fixed "
+                   "with probability equal to its throughput, pbrt-v4's rule) | sqrt (with the "
+                   "square root of its throughput, Cycles' rule: longer dim paths) | P, a fixed "
                    "continuation probability with 0 < P <= 1 (the CS184 course's roulette, which "
                    "uses 0.65; 1 = no roulette)")
-        ->type_name("throughput|P");
+        ->type_name("throughput|sqrt|P");
     app.add_option("--sampler", o.sampler,
                    "Where each sample's random numbers come from: independent (default; the per-sample "
                    "PCG32 streams of earlier versions) | stratified (jittered strata per dimension) | "
@@ -245,11 +246,13 @@ void finish_options(Options& o, const dist::World& world) {
     }
     if (o.rr == "throughput") {
         o.is.rr_continue = renderer::IntegratorSettings::kThroughputRoulette;
+    } else if (o.rr == "sqrt") {
+        o.is.rr_continue = renderer::IntegratorSettings::kSqrtThroughputRoulette;
     } else {
         char* end = nullptr;
         const float p = std::strtof(o.rr.c_str(), &end);
         if (o.rr.empty() || *end != '\0' || !(p > 0.0f && p <= 1.0f))
-            fail(fmt::format("--rr {}: expected throughput or a probability P with 0 < P <= 1", o.rr));
+            fail(fmt::format("--rr {}: expected throughput, sqrt or a probability P with 0 < P <= 1", o.rr));
         o.is.rr_continue = p;
     }
     rs.sampler = renderer::parse_sampler(o.sampler);

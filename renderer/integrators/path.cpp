@@ -66,8 +66,11 @@ Vec3f sum_light_samples(const LightSet& lights, int light_samples, const Interac
 /// largest channel, with refraction's 1/eta^2 undone by eta_scale), and survivors carry
 /// 1/(1 - q). Unlike a fixed probability it never cuts a bright path through a mirror or
 /// glass, and stops dim ones sooner. False: the path ends.
-bool throughput_roulette(Vec3f& beta, float eta_scale, float u) {
-    const float q = std::max(0.0f, 1.0f - accel::max_component(beta * eta_scale));
+bool throughput_roulette(Vec3f& beta, float eta_scale, float u, bool sqrt_rule) {
+    // Cycles' rule continues with sqrt of the throughput: dim paths live longer, so fewer
+    // survivors carry large weights (the "sqrt roulette" row of renderer/README.md).
+    const float m = accel::max_component(beta * eta_scale);
+    const float q = std::max(0.0f, 1.0f - (sqrt_rule ? std::sqrt(m) : m));
     if (q <= 0.0f) return true;
     if (u < q) return false;
     beta = beta / (1.0f - q);
@@ -178,7 +181,7 @@ Vec3f PathIntegrator::li(const accel::Ray& camera_ray, SampleContext& ctx) const
         // Throughput roulette weighs the throughput after this vertex's albedo, before the
         // ray is traced, so a terminated path costs no trace.
         if (s_.throughput_roulette() && bounce >= 2 &&
-            !throughput_roulette(beta, eta_scale, ctx.get1d(d + dims::kRoulette)))
+            !throughput_roulette(beta, eta_scale, ctx.get1d(d + dims::kRoulette), s_.sqrt_roulette()))
             break;
         const accel::Ray ray = spawn_ray(it.p, it.p_error, it.ng, wi, scale_, s_.offset);
         if (!ctx.accel.intersect(ray, hit, ctx.stats)) break;  // environment: counted by direct()
@@ -241,7 +244,7 @@ bool PathIntegrator::scatter(const scenes::Material& m, int bounce, Interaction&
     eta_scale *= bs.eta * bs.eta;
     // Not at the last vertex: its BSDF sample only finds emission, and ends the path anyway.
     if (s_.throughput_roulette() && !last && bounce >= 2 &&
-        !throughput_roulette(beta, eta_scale, ctx.get1d(d + dims::kRoulette)))
+        !throughput_roulette(beta, eta_scale, ctx.get1d(d + dims::kRoulette), s_.sqrt_roulette()))
         return false;
     const accel::Ray ray = spawn_ray(it.p, it.p_error, it.ng, wi, scale_, s_.offset);
     accel::Hit hit;

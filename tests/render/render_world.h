@@ -23,6 +23,7 @@ namespace renderer {
 /// Mean and standard error of an estimator, from independent samples.
 struct Estimate {
     double mean = 0, se = 0;
+    uint64_t rays = 0;  ///< rays the n samples traced (camera and bounce rays)
 };
 
 inline Estimate estimate(const Integrator& integ, const accel::Accelerator& acc, const accel::Ray& ray, int n,
@@ -40,6 +41,7 @@ inline Estimate estimate(const Integrator& integ, const accel::Accelerator& acc,
     Estimate e;
     e.mean = s1 / n;
     e.se = std::sqrt(std::max(0.0, (s2 / n - e.mean * e.mean) / (n - 1)));
+    e.rays = st.rays;
     return e;
 }
 

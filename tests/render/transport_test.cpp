@@ -72,17 +72,26 @@ TEST(WhiteFurnace, ConvergesToLeOverOneMinusAlbedo) {
 // ends a path whose throughput is still 1 (a white furnace), where the course's fixed
 // probability would.
 TEST(ThroughputRoulette, UnbiasedAndKeepsBrightPaths) {
-    for (float a : {0.5f, 0.9f}) {
-        IntegratorSettings is;
-        ASSERT_TRUE(is.throughput_roulette()) << "throughput roulette is the default";
-        is.max_depth = 100;
-        World s = furnace(a, 1.0f, is);
-        const double expected = (1.0 - std::pow(a, 101)) / (1.0 - a);
-        Estimate e = estimate(*s.integrator, *s.accel, ray_to({0.1f, 0.2f, 0.0f}, {1, 0.3f, 0.2f}), 20000, 5);
-        EXPECT_NEAR(e.mean, expected, 3.0 * e.se + 1e-6) << "albedo " << a;
+    ASSERT_TRUE(IntegratorSettings().throughput_roulette()) << "throughput roulette is the default";
+    ASSERT_FALSE(IntegratorSettings().sqrt_roulette()) << "pbrt-v4's rule is the default";
+    // Both throughput rules (pbrt-v4's and Cycles' square root), and the square root keeps
+    // more paths alive: more rays for the same samples.
+    uint64_t rays[2] = {0, 0};
+    for (int k = 0; k < 2; ++k) {
+        for (float a : {0.5f, 0.9f}) {
+            IntegratorSettings is;
+            is.rr_continue = k ? IntegratorSettings::kSqrtThroughputRoulette : IntegratorSettings::kThroughputRoulette;
+            is.max_depth = 100;
+            World s = furnace(a, 1.0f, is);
+            const double expected = (1.0 - std::pow(a, 101)) / (1.0 - a);
+            Estimate e = estimate(*s.integrator, *s.accel, ray_to({0.1f, 0.2f, 0.0f}, {1, 0.3f, 0.2f}), 20000, 5);
+            EXPECT_NEAR(e.mean, expected, 3.0 * e.se + 1e-6) << "albedo " << a << (k ? " sqrt" : "");
+            rays[k] += e.rays;
+        }
     }
+    EXPECT_GT(rays[1], rays[0] + rays[0] / 10) << "the square root rule ends fewer paths";
     // Albedo 1: every path runs to the depth cap: one bounce ray per vertex but the last.
-    for (float rr : {IntegratorSettings::kThroughputRoulette, 0.65f}) {
+    for (float rr : {IntegratorSettings::kThroughputRoulette, IntegratorSettings::kSqrtThroughputRoulette, 0.65f}) {
         IntegratorSettings is;
         is.max_depth = 8;
         is.rr_continue = rr;
