@@ -829,7 +829,13 @@ bool occlude(const WideBvh& w, const Ray& ray_in, TraceStats& stats, F f = {}) {
                 // others), and pushing an empty mask adds nothing. That branch followed
                 // the data and mispredicted: shadow rays +4.5 to +6.2 % on the course
                 // meshes without it (accel/DECISIONS.md, "branch-free occlusion push").
-                const int i = P::nearest(dist, mask);
+                // Masked trees hold their lanes largest first (wide.cpp, gather): the
+                // likeliest occluder first, where each candidate costs an alpha lookup.
+                int i;
+                if constexpr (Masked)
+                    i = __builtin_ctz(mask);
+                else
+                    i = P::nearest(dist, mask);
                 ref = n.child[i];
                 count = n.count[i];
                 mask &= ~(1u << i);

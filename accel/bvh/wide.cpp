@@ -123,6 +123,7 @@ public:
         : nodes_(t.nodes), order_(t.order), plan_(plan), g_(g), test_(test), prefetch_(prefetch), out_(out) {
         out_.one_geom = order_.empty() ? 0 : order_[0].geom;
         several_ = std::any_of(order_.begin(), order_.end(), [&](const PrimRef& r) { return r.geom != out_.one_geom; });
+        area_order_ = std::any_of(g_.begin(), g_.end(), [](const GeometryView& v) { return v.filter != nullptr; });
     }
 
     /// Builds the whole wide tree from binary interior node 0.
@@ -200,6 +201,14 @@ private:
         int n = 0;
         assign(nodes_[binary].offset, left, kids, n);
         assign(nodes_[binary].offset + 1, kWidth - left, kids, n);
+        // Trees with masked geometry: lanes by surface area, largest first, which the
+        // masked any-hit walk enters first (kernel.h, occlude; accel/DECISIONS.md,
+        // "any-hit order of masked trees"). Opaque trees keep the plan's order, and so
+        // their layout.
+        if (area_order_)
+            std::stable_sort(kids, kids + n, [&](const Kid& a, const Kid& b) {
+                return nodes_[a.binary].bounds().surface_area() > nodes_[b.binary].bounds().surface_area();
+            });
         return n;
     }
 
@@ -397,6 +406,7 @@ private:
     LeafPrefetch prefetch_;
     WideBvh& out_;
     bool several_ = false;  ///< primitives of more than one geometry: lanes record theirs
+    bool area_order_ = false;  ///< some geometry is masked: lanes by area (gather)
     std::vector<Top> tops_;
     std::vector<Job> jobs_;
 };
