@@ -309,18 +309,15 @@ LightSet::LightSet(const scenes::Scene& scene, LightModel model, std::vector<std
     }
 }
 
-uint32_t LightSet::pick(const AliasBin* bins, uint32_t n, float u, float& rest) {
+uint32_t LightSet::pick(const AliasBin* bins, uint32_t n, float u, float* rest) {
     // u's integer part in n bins picks a bin, its fraction the bin's side; the fraction's
     // place within that side is what is left.
     const float x = u * float(n);
     const uint32_t k = std::min(uint32_t(x), n - 1);
     const float f = std::min(x - float(k), 0x1.fffffep-1f), q = bins[k].q;
-    if (f < q) {
-        rest = std::min(f / q, 0x1.fffffep-1f);
-        return k;
-    }
-    rest = std::min((f - q) / (1.0f - q), 0x1.fffffep-1f);
-    return bins[k].alias;
+    const bool own = f < q;
+    if (rest) *rest = std::min(own ? f / q : (f - q) / (1.0f - q), 0x1.fffffep-1f);
+    return own ? k : bins[k].alias;
 }
 
 void LightSet::build_alias_table(const Tri* tris, uint32_t n, std::vector<AliasBin>& out) {
@@ -415,7 +412,7 @@ bool LightSet::sample(size_t i, const Vec3f& p, const Vec3f& n, float choice, Ve
             // number the same way), where a separate choice number would hand each
             // triangle a random share of the strata.
             float a = u2.x, b = u2.y;
-            const Tri& t = tris_[l.first_tri + pick(pick_.data() + l.first_tri, l.num_tris, u2.x, a)];
+            const Tri& t = tris_[l.first_tri + pick(pick_.data() + l.first_tri, l.num_tris, u2.x, &a)];
             // Near triangles by solid angle (see solid_angle_sampled), the rest by area.
             float solid_pdf = 0;
             const SphericalTriangle st = near_triangle(t, p);
@@ -505,8 +502,7 @@ bool LightSet::sample_instanced(const Light& l, const Vec3f& p, float choice, Ve
     if (!(p_inst > 0)) return false;
     const float lo = j ? icdf[j - 1] : 0.0f;
     const float u = std::min((choice - lo) / p_inst, 0x1.fffffep-1f);
-    float rest;
-    const Tri& t = tris_[l.first_tri + pick(pick_.data() + l.first_tri, l.num_tris, u, rest)];
+    const Tri& t = tris_[l.first_tri + pick(pick_.data() + l.first_tri, l.num_tris, u)];
     const Placement place(scene_->instances[inst_ids_[l.first_inst + j]].object_to_world);
     const Tri w = placed(t, place);
     const float p_tri = p_inst * t.area / l.area;  // P(placement) P(triangle)

@@ -192,9 +192,9 @@ private:
         uint32_t alias;
     };
     static constexpr uint32_t kNoTri = ~0u;
-    /// Index in [0, n) drawn from bins[0, n) by u in [0, 1). `rest`: u's unused part,
-    /// uniform in [0, 1) given the index (pbrt-v4's uRemapped), for the point.
-    static uint32_t pick(const AliasBin* bins, uint32_t n, float u, float& rest);
+    /// Index in [0, n) drawn from bins[0, n) by u in [0, 1). `rest`, where given: u's
+    /// unused part, uniform in [0, 1) given the index (pbrt-v4's uRemapped), for the point.
+    static uint32_t pick(const AliasBin* bins, uint32_t n, float u, float* rest = nullptr);
     /// Appends the n bins that pick tris[k] with probability area / total area.
     static void build_alias_table(const Tri* tris, uint32_t n, std::vector<AliasBin>& out);
 
