@@ -420,9 +420,8 @@ bool LightSet::sample(size_t i, const Vec3f& p, const Vec3f& n, float choice, Ve
                 // The point of the triangle in that direction: its barycentrics replace (a, b).
                 if (!barycentrics_toward(p, st.sample(a, b), t.v0, t.e1, t.e2, a, b)) return false;
                 solid_pdf = t.area / (l.area * st.solid_angle());
-            } else if (a + b > 1.0f) {
-                a = 1.0f - a;
-                b = 1.0f - b;
+            } else {
+                uniform_triangle(a, b, a, b);
             }
             const Vec3f ea = t.e1 * a, eb = t.e2 * b;
             const Vec3f q = t.v0 + ea + eb;
@@ -512,9 +511,8 @@ bool LightSet::sample_instanced(const Light& l, const Vec3f& p, float choice, Ve
     if (solid_angle_sampled(st)) {
         if (!barycentrics_toward(p, st.sample(a, b), w.v0, w.e1, w.e2, a, b)) return false;
         solid_pdf = p_tri / st.solid_angle();
-    } else if (a + b > 1.0f) {
-        a = 1.0f - a;
-        b = 1.0f - b;
+    } else {
+        uniform_triangle(a, b, a, b);
     }
     // The point in object space (the bound of a world-space emitter's point), then
     // placed with the transform's own rounding added (Placement::point, pbrt-v4 6.8.6).

@@ -49,4 +49,19 @@ inline Vec3f cosine_hemisphere(float u1, float u2) {
     return {r * std::cos(phi), r * std::sin(phi), std::sqrt(std::max(0.0f, 1.0f - u1))};
 }
 
+/// Uniform barycentrics (b1, b2) of a triangle from the unit square by Heitz's
+/// low-distortion map (Heitz 2019, "A Low-Distortion Map Between Triangle and Square"):
+/// it shears the square onto the triangle instead of folding its upper half over, so
+/// neighbouring sample points stay neighbours and a stratified set stays stratified
+/// (the fold overlays two half sets; "Area-sampled light triangles" in renderer/README.md).
+inline void uniform_triangle(float u1, float u2, float& b1, float& b2) {
+    if (u2 > u1) {
+        b1 = 0.5f * u1;
+        b2 = u2 - b1;
+    } else {
+        b2 = 0.5f * u2;
+        b1 = u1 - b2;
+    }
+}
+
 }  // namespace renderer

@@ -4,11 +4,13 @@
 // analytic integrand their error falls faster than independent sampling's N^-1/2.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <vector>
 
 #include "renderer/rng.h"
 #include "renderer/sampler.h"
+#include "renderer/sampling.h"
 
 using namespace renderer;
 
@@ -243,4 +245,81 @@ TEST(Sampler, PaddedDimensionsAreDecorrelated) {
         for (SamplerKind kind : {SamplerKind::Stratified, SamplerKind::Sobol, SamplerKind::ZSobol, SamplerKind::Pmj02})
             EXPECT_LT(rms(kind, n), 0.7 * independent) << sampler_name(kind) << " n " << n;
     }
+}
+
+// Light triangles sampled by area take their barycentrics through uniform_triangle
+// (renderer/sampling.h). It must be uniform over the triangle, and it must hand a
+// stratified set on to the triangle still stratified: a smooth integrand over the
+// triangle, estimated with a pixel's sobol points, must converge as those points do on
+// the square. The fold that it replaced (reflect u1 + u2 > 1 back through the hypotenuse)
+// is uniform too but overlays the folded half of the points on the other half: the
+// reference below that this map has to beat.
+TEST(Sampler, TriangleMapIsUniformAndKeepsStrata) {
+    // Uniformity: 4^4 = 256 sub-triangles (midpoint subdivision), each 1/256 of the area.
+    // A point's cell: the sub-triangle of (b1, b2) at level 4 is fixed by the integer parts
+    // of 16 b1, 16 b2 and 16 (1 - b1 - b2).
+    const auto cell = [](float b1, float b2) {
+        const int i = std::min(15, int(16.0f * b1)), j = std::min(15, int(16.0f * b2));
+        const bool upper = 16.0f * b1 - float(i) + 16.0f * b2 - float(j) > 1.0f;
+        return (i * 16 + j) * 2 + (upper ? 1 : 0);
+    };
+    std::vector<int> count(512, 0);
+    Rng rng(7, 3);
+    const int n = 1 << 18;
+    for (int k = 0; k < n; ++k) {
+        float b1, b2;
+        uniform_triangle(rng.next_float(), rng.next_float(), b1, b2);
+        ASSERT_TRUE(b1 >= 0 && b2 >= 0 && b1 + b2 <= 1.0f) << b1 << " " << b2;
+        ++count[size_t(cell(b1, b2))];
+    }
+    // Cells (i, j, upper) with i + j + upper > 15 lie outside the triangle: 256 are inside.
+    double chi2 = 0;
+    int inside = 0;
+    for (int i = 0; i < 16; ++i)
+        for (int j = 0; j < 16; ++j)
+            for (int up = 0; up < 2; ++up) {
+                const int c = count[size_t((i * 16 + j) * 2 + up)];
+                if (i + j + up > 15) {
+                    EXPECT_EQ(c, 0);
+                    continue;
+                }
+                ++inside;
+                const double e = double(n) / 256;
+                chi2 += (c - e) * (c - e) / e;
+            }
+    ASSERT_EQ(inside, 256);
+    EXPECT_LT(chi2, 255 + 5 * std::sqrt(2.0 * 255)) << "chi-square, 255 degrees of freedom";
+
+    // Strata: the mean over 64 pixels of |error| of the integral of exp(b1 + 2 b2) over
+    // the triangle (exact: 2 * (e^2/2 - e + 1/2)), 256 sobol points each.
+    const double exact = 2.0 * (std::exp(2.0) / 2.0 - std::exp(1.0) + 0.5);
+    const auto error = [&](SamplerKind kind, bool fold) {
+        const int w = 8;
+        const uint32_t spp = 256;
+        const Sampler s(kind, 11, int(spp), w, w);
+        double sum_err = 0;
+        for (int y = 0; y < w; ++y)
+            for (int x = 0; x < w; ++x) {
+                double sum = 0;
+                for (uint32_t i = 0; i < spp; ++i) {
+                    const Vec2f u = PixelSample(s, x, y, w, i).get2d(dims::bounce(1) + dims::kLightPoint);
+                    float b1 = u.x, b2 = u.y;
+                    if (!fold)
+                        uniform_triangle(u.x, u.y, b1, b2);
+                    else if (b1 + b2 > 1.0f)
+                        b1 = 1.0f - b1, b2 = 1.0f - b2;
+                    sum += std::exp(double(b1) + 2.0 * double(b2));
+                }
+                sum_err += std::abs(sum / spp - exact);
+            }
+        return sum_err / (w * w);
+    };
+    const double independent = error(SamplerKind::Independent, false);
+    const double sobol = error(SamplerKind::Sobol, false), sobol_fold = error(SamplerKind::Sobol, true);
+    RecordProperty("independent", std::to_string(independent));
+    RecordProperty("sobol", std::to_string(sobol));
+    RecordProperty("sobol_fold", std::to_string(sobol_fold));
+    // N^-3/4 against N^-1/2 at N = 256 is a factor of 4.
+    EXPECT_LT(sobol, 0.25 * independent);
+    EXPECT_LT(sobol, 0.5 * sobol_fold);
 }
