@@ -78,10 +78,33 @@ struct Sobol1Bytes {
 };
 constexpr Sobol1Bytes kSobol1Bytes{};
 
-uint32_t sobol1(uint32_t i) {
-    return kSobol1Bytes.t[0][i & 0xFFu] ^ kSobol1Bytes.t[1][(i >> 8) & 0xFFu] ^
-           kSobol1Bytes.t[2][(i >> 16) & 0xFFu] ^ kSobol1Bytes.t[3][i >> 24];
+/// The same tables with every entry's bits reversed: reverse_bits(sobol1(i)), which is
+/// what an Owen scramble of sobol1(i) starts from, without a reversal per draw.
+struct Sobol1BytesReversed {
+    std::array<std::array<uint32_t, 256>, 4> t{};
+    constexpr Sobol1BytesReversed() {
+        for (size_t b = 0; b < 4; ++b)
+            for (size_t v = 0; v < 256; ++v) {
+                uint32_t r = 0;
+                for (int k = 0; k < 32; ++k)
+                    if (kSobol1Bytes.t[b][v] >> k & 1u) r |= 1u << (31 - k);
+                t[b][v] = r;
+            }
+    }
+};
+constexpr Sobol1BytesReversed kSobol1BytesReversed{};
+
+/// Owen-scrambled sobol1(i): reverse_bits(laine_karras(reverse_bits(sobol1(i)), seed)).
+uint32_t owen_sobol1(uint32_t i, uint32_t seed) {
+    const uint32_t r = kSobol1BytesReversed.t[0][i & 0xFFu] ^ kSobol1BytesReversed.t[1][(i >> 8) & 0xFFu] ^
+                       kSobol1BytesReversed.t[2][(i >> 16) & 0xFFu] ^ kSobol1BytesReversed.t[3][i >> 24];
+    return reverse_bits(laine_karras(r, seed));
 }
+
+/// A third 32-bit seed from a 64-bit key: the high half of its product with an odd
+/// constant depends on every bit of the key, at the price of one multiply instead of
+/// another mix64.
+uint32_t third_seed(uint64_t k) { return uint32_t((k * 0xD6E8FEB86659FD93ull) >> 32); }
 
 /// Fixed point to [0, 1): the top 24 bits, so the result is never 1.
 float to_unit(uint32_t v) { return float(v >> 8) * 0x1p-24f; }
@@ -318,7 +341,7 @@ Sampler::Sampler(SamplerKind kind, uint64_t seed, int spp, int width, int height
 
 PixelSample::PixelSample(const Sampler& sampler, int x, int y, int width, uint32_t sample)
     : s_(&sampler),
-      pixel_(uint64_t(y) * uint64_t(width) + uint64_t(x)),
+      pixel_key_(mix64(sampler.seed_ ^ mix64(uint64_t(y) * uint64_t(width) + uint64_t(x) + 0x632BE59BD9B4E019ull))),
       morton_(0),
       sample_(sample),
       sample_hash_{sample_hash(sample, 0), sample_hash(sample, 1)} {
@@ -326,9 +349,12 @@ PixelSample::PixelSample(const Sampler& sampler, int x, int y, int width, uint32
         morton_ = (morton2(uint32_t(x), uint32_t(y)) << sampler.log2_spp_) | uint64_t(sample);
 }
 
+// A draw's key: the hash of (seed, pixel) made once per sample, combined with the
+// dimension's tabulated hash by one more mixing step, instead of hashing seed, pixel and
+// dimension in a chain at every draw ("cheaper draws" in renderer/README.md).
 uint64_t PixelSample::key(uint32_t dim) const {
     const uint64_t inner = dim < dims::kLdDimensions ? s_->dim_hash_[dim] : hash3_inner(dim);
-    return mix64(s_->seed_ ^ mix64(pixel_ ^ inner));  // hash3(seed, pixel, dim)
+    return mix64(pixel_key_ ^ inner);
 }
 
 float PixelSample::hashed(uint32_t dim, uint32_t which) const {
@@ -421,15 +447,13 @@ Vec2f PixelSample::get2d(uint32_t dim) const {
         case SamplerKind::Sobol: {
             const uint64_t k = key(dim);
             const uint32_t i = shuffle_index(sample_, uint32_t(k));
-            const uint64_t k2 = mix64(k);
-            return {to_unit(owen_sobol0(i, uint32_t(k >> 32))),
-                    to_unit(owen_scramble(sobol1(i), uint32_t(k2)))};
+            return {to_unit(owen_sobol0(i, uint32_t(k >> 32))), to_unit(owen_sobol1(i, third_seed(k)))};
         }
         case SamplerKind::ZSobol: {
             const uint64_t i = zsobol_index(morton_, s.base4_digits_, s.log2_spp_, dim, s.seed_);
             const uint64_t h = s.zsobol_scramble_[dim];
             return {to_unit(owen_sobol0(uint32_t(i), uint32_t(h))),
-                    to_unit(owen_scramble(sobol1(uint32_t(i)), uint32_t(h >> 32)))};
+                    to_unit(owen_sobol1(uint32_t(i), uint32_t(h >> 32)))};
         }
         case SamplerKind::Pmj02: {
             const uint64_t k = key(dim);

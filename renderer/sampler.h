@@ -112,7 +112,7 @@ public:
 
 private:
     const Sampler* s_;
-    uint64_t pixel_;     // y * width + x
+    uint64_t pixel_key_;  // hash of (seed, pixel), pixel = y * width + x: key()'s per-sample part
     uint64_t morton_;    // zsobol: Morton code of (x, y), shifted above the sample bits
     uint32_t sample_;
     uint64_t sample_hash_[2];  // the sample's part of `hashed`, for its two coordinates
