@@ -48,20 +48,20 @@ constexpr float gamma_bound(int n) {
 /// Next representable float toward +inf / -inf (pbrt-v4 NextFloatUp/Down); -0 and +0
 /// step to the smallest denormal, infinities and NaN stay.
 /// Stepping the bit pattern (as pbrt-v4 does) instead of calling nextafter: every shadow
-/// and bounce ray takes three, and libm's nextafterf is an out-of-line call.
+/// and bounce ray takes three to six, and libm's nextafterf is an out-of-line call. One
+/// test filters infinities and NaN; zero is moved to the side it steps away from, so the
+/// step itself is a select on the sign.
 inline float next_float_up(float v) {
-    if (std::isinf(v) && v > 0.0f) return v;
-    if (v == 0.0f) return std::numeric_limits<float>::denorm_min();  // -0 and +0
-    uint32_t b = std::bit_cast<uint32_t>(v);
-    b = v > 0.0f ? b + 1 : b - 1;  // NaN: neither branch of the sign makes it a number
-    return std::isnan(v) ? v : std::bit_cast<float>(b);
+    if (!(v < std::numeric_limits<float>::infinity())) return v;  // +inf and NaN
+    if (v == 0.0f) v = 0.0f;                                         // -0 steps up like +0
+    const uint32_t b = std::bit_cast<uint32_t>(v);
+    return std::bit_cast<float>(v >= 0.0f ? b + 1 : b - 1);
 }
 inline float next_float_down(float v) {
-    if (std::isinf(v) && v < 0.0f) return v;
-    if (v == 0.0f) return -std::numeric_limits<float>::denorm_min();
-    uint32_t b = std::bit_cast<uint32_t>(v);
-    b = v > 0.0f ? b - 1 : b + 1;
-    return std::isnan(v) ? v : std::bit_cast<float>(b);
+    if (!(v > -std::numeric_limits<float>::infinity())) return v;  // -inf and NaN
+    if (v == 0.0f) v = -0.0f;
+    const uint32_t b = std::bit_cast<uint32_t>(v);
+    return std::bit_cast<float>(v <= 0.0f ? b + 1 : b - 1);
 }
 
 /// Plain epsilon: a few ulps of the hit point's largest coordinate (rounding of p grows
@@ -165,19 +165,25 @@ inline accel::Ray spawn_segment(const Vec3f& p, const Vec3f& p_err, const Vec3f&
         // end whatever the cosine, so the end must clear the plane by that much as well.
         // Measured in tests/stability (Lights.*): without it, 2,298 of 20,000 light
         // samples arriving at cosines down to 1e-5 were shadowed by the light itself.
-        const Vec3f grow(gamma_bound(8) * accel::length(target - r.org));
+        // The segment's 1-norm bounds its length from above (by at most sqrt 3) without
+        // a square root.
+        const Vec3f d = accel::vabs(target - r.org);
+        const Vec3f grow(gamma_bound(8) * (d.x + d.y + d.z));
         end = offset_ray_origin(target, target_err + grow, target_n, r.org - target);
     }
     r.dir = end - r.org;
-    r.t_min = spawn_t_min(p_err, r.dir);
-    const float len = accel::length(r.dir);
-    // Back off by the target's whole error box even when its normal moved the end off
-    // the surface: the normal offset clears the target's own plane only, and a target
-    // near an edge (within its box of the neighbouring face, as computed points on
+    // One square root and one division for both ends: t_min is spawn_t_min's, and the
+    // far end backs off by the target's whole error box even when its normal moved the
+    // end off the surface: the normal offset clears the target's own plane only, and a
+    // target near an edge (within its box of the neighbouring face, as computed points on
     // convex corners often are) would otherwise be reached through that face. This is
     // the mirror of spawn_t_min at the near end.
+    const float len = accel::length(r.dir);
+    const float inv = len > 0.0f ? 1.0f / len : 0.0f;
+    const float near = (p_err.x + p_err.y + p_err.z) * inv;
+    r.t_min = near >= 0.0f && std::isfinite(near) ? near : 0.0f;
     const float back = target_err.x + target_err.y + target_err.z;
-    r.t_max = len > 0 ? std::max(0.0f, 1.0f - kShadowEpsilon - back / len) : 0.0f;
+    r.t_max = len > 0 ? std::max(0.0f, 1.0f - kShadowEpsilon - back * inv) : 0.0f;
     if (!(r.t_max >= 0.0f)) r.t_max = 0.0f;  // NaN in, no hit out
     return r;
 }
