@@ -61,35 +61,27 @@ struct Sobol1Matrix {
 };
 constexpr Sobol1Matrix kSobol1{};
 
-/// The product of the generator matrix with the index, a byte at a time: table[b][v] is
-/// the XOR of the direction numbers of the set bits of v in byte b (4 lookups instead of
-/// a loop over 32 bits; shuffled indices have their high bits set).
-struct Sobol1Bytes {
-    std::array<std::array<uint32_t, 256>, 4> t{};
-    constexpr Sobol1Bytes() {
-        for (size_t b = 0; b < 4; ++b)
-            for (uint32_t v = 0; v < 256; ++v) {
-                uint32_t r = 0;
-                for (size_t k = 0; k < 8; ++k)
-                    if (v >> k & 1u) r ^= kSobol1.v[8 * b + k];
-                t[b][v] = r;
-            }
-    }
-};
-constexpr Sobol1Bytes kSobol1Bytes{};
-
-/// The same tables with every entry's bits reversed: reverse_bits(sobol1(i)), which is
-/// what an Owen scramble of sobol1(i) starts from, without a reversal per draw.
+/// The product of the generator matrix with the index, a byte at a time, bits reversed:
+/// table[b][v] is the XOR of the reversed direction numbers of the set bits of v in byte
+/// b (4 lookups instead of a loop over 32 bits; shuffled indices have their high bits
+/// set). Reversed because an Owen scramble of sobol1(i) starts by reversing it, and bit
+/// reversal commutes with XOR: no reversal per draw.
 struct Sobol1BytesReversed {
     std::array<std::array<uint32_t, 256>, 4> t{};
     constexpr Sobol1BytesReversed() {
         for (size_t b = 0; b < 4; ++b)
-            for (size_t v = 0; v < 256; ++v) {
+            for (uint32_t v = 0; v < 256; ++v) {
                 uint32_t r = 0;
-                for (int k = 0; k < 32; ++k)
-                    if (kSobol1Bytes.t[b][v] >> k & 1u) r |= 1u << (31 - k);
+                for (size_t k = 0; k < 8; ++k)
+                    if (v >> k & 1u) r ^= reversed(kSobol1.v[8 * b + k]);
                 t[b][v] = r;
             }
+    }
+    static constexpr uint32_t reversed(uint32_t x) {
+        uint32_t r = 0;
+        for (int k = 0; k < 32; ++k)
+            if (x >> k & 1u) r |= 1u << (31 - k);
+        return r;
     }
 };
 constexpr Sobol1BytesReversed kSobol1BytesReversed{};

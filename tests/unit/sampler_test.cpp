@@ -147,31 +147,39 @@ double estimate(Vec2f u, double h) {
     return h * h / (r2 * r2);
 }
 
-/// RMS error over 256 pixels (each its own randomisation) of the N-sample estimate, the
-/// numbers taken from the light-point dimensions of the first vertex.
-double rms_error(SamplerKind kind, uint32_t n, double h) {
-    const double exact = square_irradiance(h);
-    const int w = 16;
-    const Sampler s(kind, 2, int(n), w, w);
-    double sq = 0;
+/// The N-sample means of f over the pixels of a w x w image (each its own randomisation),
+/// the numbers taken from the light-point dimensions of the first vertex; independent
+/// numbers as the renderer draws them.
+template <class F>
+std::vector<double> pixel_means(SamplerKind kind, uint32_t n, uint64_t seed, int w, F&& f) {
+    const Sampler s(kind, seed, int(n), w, w);
+    std::vector<double> means;
     for (int y = 0; y < w; ++y)
         for (int x = 0; x < w; ++x) {
             double sum = 0;
             for (uint32_t i = 0; i < n; ++i) {
                 Vec2f u;
-                if (kind == SamplerKind::Independent) {  // as the renderer draws it
-                    Rng rng(2, uint64_t(y * w + x), i);
+                if (kind == SamplerKind::Independent) {
+                    Rng rng(seed, uint64_t(y * w + x), i);
                     u.x = rng.next_float();
                     u.y = rng.next_float();
                 } else {
                     u = PixelSample(s, x, y, w, i).get2d(dims::bounce(1) + dims::kLightPoint);
                 }
-                sum += estimate(u, h);
+                sum += f(u);
             }
-            const double e = sum / n - exact;
-            sq += e * e;
+            means.push_back(sum / n);
         }
-    return std::sqrt(sq / (w * w));
+    return means;
+}
+
+/// RMS error over 256 pixels of the N-sample estimate.
+double rms_error(SamplerKind kind, uint32_t n, double h) {
+    const double exact = square_irradiance(h);
+    double sq = 0;
+    const std::vector<double> means = pixel_means(kind, n, 2, 16, [&](Vec2f u) { return estimate(u, h); });
+    for (double m : means) sq += (m - exact) * (m - exact);
+    return std::sqrt(sq / double(means.size()));
 }
 
 /// Least-squares slope of log(error) against log(N).
@@ -294,25 +302,17 @@ TEST(Sampler, TriangleMapIsUniformAndKeepsStrata) {
     // the triangle (exact: 2 * (e^2/2 - e + 1/2)), 256 sobol points each.
     const double exact = 2.0 * (std::exp(2.0) / 2.0 - std::exp(1.0) + 0.5);
     const auto error = [&](SamplerKind kind, bool fold) {
-        const int w = 8;
-        const uint32_t spp = 256;
-        const Sampler s(kind, 11, int(spp), w, w);
+        const std::vector<double> means = pixel_means(kind, 256, 11, 8, [&](Vec2f u) {
+            float b1 = u.x, b2 = u.y;
+            if (!fold)
+                uniform_triangle(u.x, u.y, b1, b2);
+            else if (b1 + b2 > 1.0f)
+                b1 = 1.0f - b1, b2 = 1.0f - b2;
+            return std::exp(double(b1) + 2.0 * double(b2));
+        });
         double sum_err = 0;
-        for (int y = 0; y < w; ++y)
-            for (int x = 0; x < w; ++x) {
-                double sum = 0;
-                for (uint32_t i = 0; i < spp; ++i) {
-                    const Vec2f u = PixelSample(s, x, y, w, i).get2d(dims::bounce(1) + dims::kLightPoint);
-                    float b1 = u.x, b2 = u.y;
-                    if (!fold)
-                        uniform_triangle(u.x, u.y, b1, b2);
-                    else if (b1 + b2 > 1.0f)
-                        b1 = 1.0f - b1, b2 = 1.0f - b2;
-                    sum += std::exp(double(b1) + 2.0 * double(b2));
-                }
-                sum_err += std::abs(sum / spp - exact);
-            }
-        return sum_err / (w * w);
+        for (double m : means) sum_err += std::abs(m - exact);
+        return sum_err / double(means.size());
     };
     const double independent = error(SamplerKind::Independent, false);
     const double sobol = error(SamplerKind::Sobol, false), sobol_fold = error(SamplerKind::Sobol, true);
