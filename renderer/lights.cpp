@@ -140,6 +140,7 @@ LightSet::LightSet(const scenes::Scene& scene, LightModel model, std::vector<std
         if (!m.uvs.empty()) l.texture = scene.materials[m.material].emission_texture;
         l.first_tri = uint32_t(tris_.size());
         l.first_prim = uint32_t(tri_of_prim_.size());
+        l.num_prims = m.num_triangles();
         tri_of_prim_.resize(tri_of_prim_.size() + m.num_triangles(), kNoTri);
         float total = 0;
         for (uint32_t t = 0; t < m.num_triangles(); ++t) {
@@ -552,7 +553,7 @@ float LightSet::pdf(size_t i, const Vec3f& p, const Vec3f& n, const Vec3f& wi, f
         case Kind::Mesh: {
             // The triangle hit, by its index in the mesh (a degenerate one, which no ray
             // hits, has none).
-            if (prim >= scene_->meshes[tris_[l.first_tri].mesh].num_triangles()) return 0.0f;
+            if (prim >= l.num_prims) return 0.0f;
             const uint32_t k = tri_of_prim_[l.first_prim + prim];
             if (k == kNoTri) return 0.0f;
             const Tri* it = &tris_[l.first_tri + k];

@@ -150,9 +150,10 @@ private:
         float radius = 0;
         float cos_inner = 1, cos_outer = 0;
         uint32_t first_tri = 0, num_tris = 0;    // mesh: range in tris_/pick_
-        /// mesh: tri_of_prim_[first_prim + mesh triangle] is that triangle's index in
-        /// tris_ (kNoTri where degenerate), so pdf() finds a hit's triangle in O(1).
-        uint32_t first_prim = 0;
+        /// mesh: tri_of_prim_[first_prim + mesh triangle] (for the mesh's num_prims
+        /// triangles) is that triangle's index in tris_ (kNoTri where degenerate), so
+        /// pdf() finds a hit's triangle in O(1).
+        uint32_t first_prim = 0, num_prims = 0;
         uint32_t texture = scenes::kNoTexture;   // mesh: emission texture
         /// Instanced mesh: its placements are inst_ids_/inst_cdf_[first_inst, +num_inst),
         /// its triangles (in tris_, `area` = their total) in object space. 0: world space.
