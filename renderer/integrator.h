@@ -66,9 +66,10 @@ struct IntegratorSettings {
     /// by the hit point's floating-point error bound (pbrt-v4 6.8); Epsilon is the plain
     /// scale-relative epsilon, kept for comparison.
     OffsetMode offset = OffsetMode::ErrorBound;
-    /// --strategy: direct light at non-diffuse surfaces by multiple importance sampling of
-    /// lights and the BSDF (default), lights only, or BSDF sampling only. Diffuse surfaces
-    /// keep light sampling (or -H).
+    /// --strategy: direct light by multiple importance sampling of lights and the BSDF
+    /// (default; at diffuse surfaces only under --lights=mesh, against the bounce's own
+    /// cosine sample), lights only, or BSDF sampling only at non-diffuse surfaces, where
+    /// diffuse ones keep light sampling (or -H).
     enum class Strategy : uint8_t { Mis, Light, Bsdf } strategy = Strategy::Mis;
     /// --texture-filter: how textures are read (renderer/texture.h).
     TextureFilter texture_filter = TextureFilter::Trilinear;

@@ -108,7 +108,7 @@ void add_course_options(CLI::App& app, Options& o) {
     app.add_option("-b", o.lens_radius, "Thin lens radius (0 = pinhole)")->check(CLI::Range(0.0f, 1e30f));
     app.add_option("-d", o.focal_distance, "Focal distance of the thin lens (default: to the scene centre)")
         ->check(CLI::PositiveNumber);
-    app.add_option("--strategy", o.strategy, "Direct light at non-diffuse surfaces: mis | light | bsdf (bsdf is mis under --lights=course, where bounces do not see emitters)")
+    app.add_option("--strategy", o.strategy, "Direct light: mis (light and BSDF samples by the power heuristic; at diffuse surfaces only under --lights=mesh) | light | bsdf (at non-diffuse surfaces; diffuse ones sample lights; bsdf is mis under --lights=course, where bounces do not see emitters)")
         ->check(CLI::IsMember({"mis", "light", "bsdf"}));
     app.add_option("--texture-filter", o.texture_filter, "Texture lookups: trilinear (the two MIP levels around each hit's pixel footprint, from ray differentials, blended; default) | stochastic (one of the two, at random with the blend's weight: faster, a little noisier) | bilinear (full-resolution image) | nearest (nearest texel of the full-resolution image)")
         ->check(CLI::IsMember({"nearest", "bilinear", "trilinear", "stochastic"}));

@@ -92,6 +92,8 @@ PathIntegrator::PathIntegrator(const scenes::Scene& scene, const SceneGeometry& 
     const accel::Bounds3f b = scene.bounds();
     scale_ = b.empty() ? 1.0f : accel::max_component(b.diagonal());
     if (s_.name == "direct") s_.max_depth = std::min(s_.max_depth, 1);
+    diffuse_mis_ = s_.strategy == IntegratorSettings::Strategy::Mis && lights_.model() == LightModel::Mesh &&
+                   !s_.hemisphere;
     for (const scenes::Material& m : scene.materials) {
         unlit_ |= m.unlit;
         textured_ |= is_textured(m);
@@ -162,7 +164,13 @@ Vec3f PathIntegrator::li(const accel::Ray& camera_ray, SampleContext& ctx) const
         if (accel::dot(it.ng, wo) < 0) it.ng = -it.ng;
         if (accel::dot(it.ns, it.ng) < 0) it.ns = -it.ns;
 
-        if (counts(bounce)) L += beta * direct(it, bounce, albedo, ctx);
+        // Light found by this vertex's bounce ray is weighed against its light samples
+        // where both strategies run (see diffuse_mis); at the last vertex light sampling
+        // alone carries it.
+        const bool mis = diffuse_mis_ && bounce < s_.max_depth;
+        if (counts(bounce))
+            L += beta * (s_.hemisphere ? direct_hemisphere(it, bounce, albedo, ctx)
+                                       : direct_lights(it, bounce, albedo, ctx, mis));
         if (bounce == s_.max_depth) break;
         // The course's fixed-probability roulette from the second bounce on: unbiased,
         // since survivors are reweighted by 1/p.
@@ -184,13 +192,22 @@ Vec3f PathIntegrator::li(const accel::Ray& camera_ray, SampleContext& ctx) const
             !throughput_roulette(beta, eta_scale, ctx.get1d(d + dims::kRoulette), s_.sqrt_roulette()))
             break;
         const accel::Ray ray = spawn_ray(it.p, it.p_error, it.ng, wi, scale_, s_.offset);
-        if (!ctx.accel.intersect(ray, hit, ctx.stats)) break;  // environment: counted by direct()
-        it = make_interaction(scene_, geometry_, ray, hit);
-        if (textured_) footprint(it, false, wi);
+        const Vec3f p_here = it.p, n_here = it.ns;
+        const bool found = ctx.accel.intersect(ray, hit, ctx.stats);
+        if (found) {
+            it = make_interaction(scene_, geometry_, ray, hit);
+            if (textured_) footprint(it, false, wi);
+        }
+        // Without MIS, light that a bounce ray finds is not added: direct() counted all of
+        // it at this vertex (under --lights=course a bounce is black to emission, as in
+        // the course).
+        if (mis && counts(bounce)) {
+            const float bsdf_pdf = local.z * accel::kInvPi;
+            L += beta * found_light(found ? &it : nullptr, hit, p_here, n_here, wi,
+                                    [&](float light_pdf) { return mis_weight(bsdf_pdf, light_pdf); });
+        }
+        if (!found) break;
         wo = -wi;
-        // Emission found by a bounce ray is not added (LightSet::emitted): under
-        // --lights=mesh direct() counted it at the previous vertex; under course it is
-        // black, as the course's bounce adds only the light sampled at the next vertex.
     }
     return L;
 }
@@ -249,42 +266,42 @@ bool PathIntegrator::scatter(const scenes::Material& m, int bounce, Interaction&
     const accel::Ray ray = spawn_ray(it.p, it.p_error, it.ng, wi, scale_, s_.offset);
     accel::Hit hit;
     const Vec3f n_here = it.ns, p_here = it.p;
-    if (!ctx.accel.intersect(ray, hit, ctx.stats)) {
-        // Through a delta lobe light sampling cannot find the environment: all of it is
-        // counted here. Otherwise both strategies found it: MIS weight.
-        if (counts(bounce)) {
-            const int e = lights_.environment_index();
-            const float w = e < 0 ? 1.0f
-                                  : bsdf_weight(float(s_.light_samples) *
-                                                lights_.pdf(size_t(e), p_here, n_here, wi, 0.0f, Vec3f(0.0f)));
-            L += beta * lights_.environment(wi) * w;
-        }
-        return false;
+    const bool found = ctx.accel.intersect(ray, hit, ctx.stats);
+    if (found) {
+        it = make_interaction(scene_, geometry_, ray, hit);
+        if (textured_) footprint(it, false, wi);
     }
-    it = make_interaction(scene_, geometry_, ray, hit);
-    if (textured_) footprint(it, false, wi);
+    // Through a delta lobe light sampling cannot find the emitter or the environment: all
+    // of it is counted here, at the path length of the previous vertex's direct light.
+    // Through a non-delta lobe it is weighted against light sampling of the same emitter
+    // (Veach 1997, 9.2), except under --lights=course, where a bounce is black to emission
+    // as in the course (its lights are the sampled library_lights; the panel is no light
+    // there) but not to the environment. Through a mirror or glass the course's own 3-2
+    // renderer shows the emitter, and so do we.
+    if (counts(bounce) && (delta || !course || !found)) L += beta * found_light(found ? &it : nullptr, hit, p_here, n_here, wi, bsdf_weight);
+    if (!found) return false;
     wo = -wi;
-    // Emission reached through a delta lobe is not reachable by light sampling: count it
-    // here, at the path length of the previous vertex's direct light. Through a non-delta
-    // lobe it is weighted against light sampling of the same emitter (Veach 1997, 9.2),
-    // except under --lights=course, where a bounce is black to emission as in the course
-    // (its lights are the sampled library_lights; the panel is no light there). Through a
-    // mirror or glass the course's own 3-2 renderer shows the emitter, and so do we.
-    if (counts(bounce) && (delta || !course)) {
-        const Vec3f Le = lights_.emitted(it, wo);
-        if (!is_black(Le)) {
-            const GeomSource& src = geometry_.source(hit.geom_id);
-            // An instanced emitter's light is that of its prototype mesh's placements.
-            const int li = src.kind == GeomSource::Mesh ? lights_.light_of_mesh(src.mesh, hit.inst_id)
-                                                        : lights_.light_of_sphere(hit.prim_id);
-            const float w = bsdf_weight(li < 0 ? 0.0f
-                                               : float(s_.light_samples) * lights_.pdf(size_t(li), p_here, n_here, wi,
-                                                                                       it.t, it.ng, hit.prim_id,
-                                                                                       hit.inst_id));
-            L += beta * Le * w;
-        }
-    }
     return !last;
+}
+
+template <class W>
+Vec3f PathIntegrator::found_light(const Interaction* next, const accel::Hit& hit, const Vec3f& p, const Vec3f& n,
+                                  const Vec3f& wi, W&& weight) const {
+    const float samples = float(s_.light_samples);
+    if (!next) {
+        const int e = lights_.environment_index();
+        if (e < 0) return Vec3f(0.0f);
+        return lights_.environment(wi) * weight(samples * lights_.pdf(size_t(e), p, n, wi, 0.0f, Vec3f(0.0f)));
+    }
+    const Vec3f Le = lights_.emitted(*next, -wi);
+    if (is_black(Le)) return Le;
+    const GeomSource& src = geometry_.source(hit.geom_id);
+    // An instanced emitter's light is that of its prototype mesh's placements.
+    const int li = src.kind == GeomSource::Mesh ? lights_.light_of_mesh(src.mesh, hit.inst_id)
+                                                : lights_.light_of_sphere(hit.prim_id);
+    return Le * weight(li < 0 ? 0.0f
+                              : samples * lights_.pdf(size_t(li), p, n, wi, next->t, next->ng, hit.prim_id,
+                                                      hit.inst_id));
 }
 
 bool PathIntegrator::occluded(const Interaction& it, const LightSample& ls, SampleContext& ctx) const {
@@ -312,18 +329,17 @@ Vec3f PathIntegrator::direct_bsdf(const Interaction& it, int bounce, const Vec3f
     });
 }
 
-Vec3f PathIntegrator::direct(const Interaction& it, int bounce, const Vec3f& albedo, SampleContext& ctx) const {
-    return s_.hemisphere ? direct_hemisphere(it, bounce, albedo, ctx) : direct_lights(it, bounce, albedo, ctx);
-}
-
-Vec3f PathIntegrator::direct_lights(const Interaction& it, int bounce, const Vec3f& albedo,
-                                    SampleContext& ctx) const {
+Vec3f PathIntegrator::direct_lights(const Interaction& it, int bounce, const Vec3f& albedo, SampleContext& ctx,
+                                    bool mis) const {
     const Vec3f f = albedo * accel::kInvPi;  // Lambert: R / pi
-    return sum_light_samples(lights_, s_.light_samples, it, bounce, ctx, [&](size_t, int, const LightSample& ls) {
+    return sum_light_samples(lights_, s_.light_samples, it, bounce, ctx, [&](size_t i, int n, const LightSample& ls) {
         const float cos_s = accel::dot(it.ns, ls.wi);
         if (!(cos_s > 0) || accel::dot(it.ng, ls.wi) <= 0) return Vec3f(0.0f);
-        if (occluded(it, ls, ctx)) return Vec3f(0.0f);
-        return ls.radiance * f * (cos_s / ls.pdf);
+        // The bounce's cosine sampling finds this direction with density cos / pi.
+        const float w = mis && !ls.delta && lights_.hittable(i) ? mis_weight(float(n) * ls.pdf, cos_s * accel::kInvPi)
+                                                                : 1.0f;
+        if (!(w > 0) || occluded(it, ls, ctx)) return Vec3f(0.0f);
+        return ls.radiance * f * (cos_s * w / ls.pdf);
     });
 }
 

@@ -23,8 +23,10 @@ public:
 private:
     /// Light arriving at `it` directly from emitters, times the BSDF and cosine.
     /// `bounce`: the vertex's index along the path (1 = first hit), for its dimensions.
-    Vec3f direct(const Interaction& it, int bounce, const Vec3f& albedo, SampleContext& ctx) const;
-    Vec3f direct_lights(const Interaction& it, int bounce, const Vec3f& albedo, SampleContext& ctx) const;
+    /// mis: weigh each light sample against the diffuse bounce's cosine sampling, which
+    /// then adds the light it finds (found_light).
+    Vec3f direct_lights(const Interaction& it, int bounce, const Vec3f& albedo, SampleContext& ctx,
+                        bool mis = false) const;
     Vec3f direct_hemisphere(const Interaction& it, int bounce, const Vec3f& albedo, SampleContext& ctx) const;
     /// One vertex on a non-diffuse material: direct light through its BSDF (skipped for
     /// delta lobes), then a BSDF-sampled bounce. Updates it, wo, beta; false ends the path.
@@ -34,6 +36,12 @@ private:
                  float& eta_scale, Vec3f& L, SampleContext& ctx, const Vec3f* base_colour = nullptr) const;
     Vec3f direct_bsdf(const Interaction& it, int bounce, const Vec3f& wo_l, const Vec3f& t, const Vec3f& bt,
                       const bsdf::Bsdf& b, SampleContext& ctx) const;
+    /// The light that a BSDF-sampled ray from p (shading normal n) in direction wi found:
+    /// the emitter `next` it hit, or the environment when next is null, times
+    /// weight(light density), the light strategy's density for that direction.
+    template <class W>
+    Vec3f found_light(const Interaction* next, const accel::Hit& hit, const Vec3f& p, const Vec3f& n,
+                      const Vec3f& wi, W&& weight) const;
     /// Is the light sample's shadow ray (segment, or ray for infinitely far lights) blocked?
     bool occluded(const Interaction& it, const LightSample& ls, SampleContext& ctx) const;
     /// Does the light of path length `bounce` (0 = emission seen directly) count?
@@ -44,6 +52,9 @@ private:
     const LightSet& lights_;
     IntegratorSettings s_;
     float scale_;
+    /// Do diffuse vertices combine light and bounce sampling by MIS? Under --lights=mesh
+    /// with --strategy=mis ("diffuse MIS" in renderer/README.md).
+    bool diffuse_mis_ = false;
     /// Does any material use KHR_materials_unlit? Scenes without one skip its tests.
     bool unlit_ = false;
     /// Does any material read a texture? Untextured scenes compute no footprint.
