@@ -65,17 +65,22 @@ Vec3f sum_light_samples(const LightSet& lights, int light_samples, const Interac
 /// a path whose throughput has fallen below 1 survives with probability equal to it (its
 /// largest channel, with refraction's 1/eta^2 undone by eta_scale), and survivors carry
 /// 1/(1 - q). Unlike a fixed probability it never cuts a bright path through a mirror or
-/// glass, and stops dim ones sooner. False: the path ends.
-bool throughput_roulette(Vec3f& beta, float eta_scale, float u, bool sqrt_rule) {
+/// glass, and stops dim ones sooner. roulette_q is the chance to end; a path that goes
+/// on (roulette_survives) carries beta / (1 - q) from then on (roulette_reweigh), which
+/// the integrator applies only after adding the light its bounce ray found (late roulette).
+float roulette_q(const Vec3f& beta, float eta_scale, bool sqrt_rule) {
     // Cycles' rule continues with sqrt of the throughput: dim paths live longer, so fewer
     // survivors carry large weights (the "sqrt roulette" row of renderer/README.md).
     const float m = accel::max_component(beta * eta_scale);
-    const float q = std::max(0.0f, 1.0f - (sqrt_rule ? std::sqrt(m) : m));
-    if (q <= 0.0f) return true;
-    if (u < q) return false;
-    beta = beta / (1.0f - q);
-    return true;
+    return std::max(0.0f, 1.0f - (sqrt_rule ? std::sqrt(m) : m));
 }
+
+bool roulette_survives(float q, float u) { return q <= 0.0f || !(u < q); }
+
+void roulette_reweigh(Vec3f& beta, float q) {
+    if (q > 0.0f) beta = beta / (1.0f - q);
+}
+
 
 /// Veach's power heuristic (beta = 2; Veach 1997, 9.2.4): the weight of the strategy
 /// with density `a` against one with density `b` (each already times its sample count).
@@ -186,27 +191,37 @@ Vec3f PathIntegrator::li(const accel::Ray& camera_ray, SampleContext& ctx) const
         const Vec3f wi = to_world(local, it.ns);
         if (!(local.z > 0) || accel::dot(wi, it.ng) <= 0) break;
         beta *= albedo;
-        // Throughput roulette weighs the throughput after this vertex's albedo, before the
-        // ray is traced, so a terminated path costs no trace.
-        if (s_.throughput_roulette() && bounce >= 2 &&
-            !throughput_roulette(beta, eta_scale, ctx.get1d(d + dims::kRoulette), s_.sqrt_roulette()))
-            break;
+        // Throughput roulette weighs the throughput after this vertex's albedo. Where the
+        // bounce ray's light counts (MIS), the path ends only after that light is added
+        // ("late roulette" in renderer/README.md); else before the ray is traced, so a
+        // path that ends costs no trace.
+        const bool emission_counts = mis && counts(bounce);
+        float q = 0.0f;
+        bool goes_on = true;
+        if (s_.throughput_roulette() && bounce >= 2) {
+            q = roulette_q(beta, eta_scale, s_.sqrt_roulette());
+            goes_on = roulette_survives(q, ctx.get1d(d + dims::kRoulette));
+            if (!goes_on && !emission_counts) break;
+        }
         const accel::Ray ray = spawn_ray(it.p, it.p_error, it.ng, wi, scale_, s_.offset);
         const Vec3f p_here = it.p, n_here = it.ns;
         const bool found = ctx.accel.intersect(ray, hit, ctx.stats);
-        if (found) {
+        // A path that ends here needs the hit only if it emits.
+        const bool needed = found && (goes_on || emissive(hit));
+        if (needed) {
             it = make_interaction(scene_, geometry_, ray, hit);
             if (textured_) footprint(it, false, wi);
         }
-        // Without MIS, light that a bounce ray finds is not added: direct() counted all of
-        // it at this vertex (under --lights=course a bounce is black to emission, as in
-        // the course).
-        if (mis && counts(bounce)) {
+        // Without MIS, light that a bounce ray finds is not added: direct lighting counted
+        // all of it at this vertex (under --lights=course a bounce is black to emission,
+        // as in the course).
+        if (emission_counts && (needed || !found)) {
             const float bsdf_pdf = local.z * accel::kInvPi;
             L += beta * found_light(found ? &it : nullptr, hit, p_here, n_here, wi,
                                     [&](float light_pdf) { return mis_weight(bsdf_pdf, light_pdf); });
         }
-        if (!found) break;
+        if (!found || !goes_on) break;
+        roulette_reweigh(beta, q);
         wo = -wi;
     }
     return L;
@@ -260,14 +275,21 @@ bool PathIntegrator::scatter(const scenes::Material& m, int bounce, Interaction&
     if (is_black(beta)) return false;
     eta_scale *= bs.eta * bs.eta;
     // Not at the last vertex: its BSDF sample only finds emission, and ends the path anyway.
-    if (s_.throughput_roulette() && !last && bounce >= 2 &&
-        !throughput_roulette(beta, eta_scale, ctx.get1d(d + dims::kRoulette), s_.sqrt_roulette()))
-        return false;
+    // Late where the ray's emission counts, as in the diffuse loop (li).
+    const bool emission_counts = counts(bounce) && (delta || !course);
+    float q = 0.0f;
+    bool goes_on = true;
+    if (s_.throughput_roulette() && !last && bounce >= 2) {
+        q = roulette_q(beta, eta_scale, s_.sqrt_roulette());
+        goes_on = roulette_survives(q, ctx.get1d(d + dims::kRoulette));
+        if (!goes_on && !emission_counts) return false;
+    }
     const accel::Ray ray = spawn_ray(it.p, it.p_error, it.ng, wi, scale_, s_.offset);
     accel::Hit hit;
     const Vec3f n_here = it.ns, p_here = it.p;
     const bool found = ctx.accel.intersect(ray, hit, ctx.stats);
-    if (found) {
+    const bool needed = found && (goes_on || emissive(hit));
+    if (needed) {
         it = make_interaction(scene_, geometry_, ray, hit);
         if (textured_) footprint(it, false, wi);
     }
@@ -278,10 +300,17 @@ bool PathIntegrator::scatter(const scenes::Material& m, int bounce, Interaction&
     // as in the course (its lights are the sampled library_lights; the panel is no light
     // there) but not to the environment. Through a mirror or glass the course's own 3-2
     // renderer shows the emitter, and so do we.
-    if (counts(bounce) && (delta || !course || !found)) L += beta * found_light(found ? &it : nullptr, hit, p_here, n_here, wi, bsdf_weight);
-    if (!found) return false;
+    if (counts(bounce) && (delta || !course || !found) && (needed || !found))
+        L += beta * found_light(found ? &it : nullptr, hit, p_here, n_here, wi, bsdf_weight);
+    if (!found || !goes_on) return false;
+    roulette_reweigh(beta, q);
     wo = -wi;
     return !last;
+}
+
+bool PathIntegrator::emissive(const accel::Hit& hit) const {
+    const uint32_t m = geometry_.material(hit.geom_id, hit.prim_id);
+    return m < scene_.materials.size() && scene_.materials[m].is_emissive();
 }
 
 template <class W>

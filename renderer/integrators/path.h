@@ -42,6 +42,8 @@ private:
     template <class W>
     Vec3f found_light(const Interaction* next, const accel::Hit& hit, const Vec3f& p, const Vec3f& n,
                       const Vec3f& wi, W&& weight) const;
+    /// Does the surface a ray hit emit (its material; before any interaction is made)?
+    bool emissive(const accel::Hit& hit) const;
     /// Is the light sample's shadow ray (segment, or ray for infinitely far lights) blocked?
     bool occluded(const Interaction& it, const LightSample& ls, SampleContext& ctx) const;
     /// Does the light of path length `bounce` (0 = emission seen directly) count?

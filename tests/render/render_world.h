@@ -24,6 +24,7 @@ namespace renderer {
 struct Estimate {
     double mean = 0, se = 0;
     uint64_t rays = 0;  ///< rays the n samples traced (camera and bounce rays)
+    uint64_t shadow_rays = 0;  ///< their shadow rays: one per vertex and light sample
 };
 
 inline Estimate estimate(const Integrator& integ, const accel::Accelerator& acc, const accel::Ray& ray, int n,
@@ -42,6 +43,7 @@ inline Estimate estimate(const Integrator& integ, const accel::Accelerator& acc,
     e.mean = s1 / n;
     e.se = std::sqrt(std::max(0.0, (s2 / n - e.mean * e.mean) / (n - 1)));
     e.rays = st.rays;
+    e.shadow_rays = st.shadow_rays;
     return e;
 }
 

@@ -75,7 +75,9 @@ TEST(ThroughputRoulette, UnbiasedAndKeepsBrightPaths) {
     ASSERT_TRUE(IntegratorSettings().throughput_roulette()) << "throughput roulette is the default";
     ASSERT_FALSE(IntegratorSettings().sqrt_roulette()) << "pbrt-v4's rule is the default";
     // Both throughput rules (pbrt-v4's and Cycles' square root), and the square root keeps
-    // more paths alive: more rays for the same samples.
+    // more paths alive: more vertices, each with its shadow ray, for the same samples.
+    // (Bounce rays do not tell: a path that ends still traces its last one, whose
+    // emission counts before the roulette.)
     uint64_t rays[2] = {0, 0};
     for (int k = 0; k < 2; ++k) {
         for (float a : {0.5f, 0.9f}) {
@@ -86,7 +88,12 @@ TEST(ThroughputRoulette, UnbiasedAndKeepsBrightPaths) {
             const double expected = (1.0 - std::pow(a, 101)) / (1.0 - a);
             Estimate e = estimate(*s.integrator, *s.accel, ray_to({0.1f, 0.2f, 0.0f}, {1, 0.3f, 0.2f}), 20000, 5);
             EXPECT_NEAR(e.mean, expected, 3.0 * e.se + 1e-6) << "albedo " << a << (k ? " sqrt" : "");
-            rays[k] += e.rays;
+            rays[k] += e.shadow_rays;
+            // Late roulette: the vertex where a path ends still traces its bounce ray, whose
+            // emission counts before the roulette, so every vertex traces one bounce ray and
+            // the camera ray comes on top (a path ended before its trace would make the
+            // counts equal).
+            EXPECT_GE(e.rays, e.shadow_rays + 20000 * 99 / 100) << "albedo " << a << (k ? " sqrt" : "");
         }
     }
     EXPECT_GT(rays[1], rays[0] + rays[0] / 10) << "the square root rule ends fewer paths";
