@@ -69,7 +69,7 @@ struct Config {
     int adaptive_batch = 0;
     float adaptive_tol = 0;
     uint64_t seed = 1;
-    renderer::SamplerKind sampler = renderer::SamplerKind::Independent;
+    renderer::SamplerKind sampler = renderer::RenderSettings{}.sampler;  // the renderer's default
 };
 
 /// Per-pixel luminance, the variance of its mean, and the region masks.

@@ -71,8 +71,9 @@ struct RenderSettings {
     int spp = 1;            ///< -s: samples per pixel (the cap under adaptive sampling)
     int threads = 0;        ///< -t: 0 = all cores
     uint64_t seed = 0;
-    /// --sampler: where each sample's numbers come from (renderer/sampler.h).
-    SamplerKind sampler = SamplerKind::Independent;
+    /// --sampler: where each sample's numbers come from (renderer/sampler.h); the
+    /// default's measurements: renderer/README.md, "Samplers and roulette".
+    SamplerKind sampler = SamplerKind::Sobol;
     std::optional<Cell> cell;
     bool progress = true;   ///< print progress lines on stderr
     int tile = 32;

@@ -58,7 +58,7 @@ struct Options {
     std::string nodes = "auto", lights_mode, offset = "error-bound", strategy = "mis", texture_filter = "trilinear";
     std::string output;
     std::string rr = "throughput";  ///< --rr: "throughput" or a probability in (0, 1]
-    std::string sampler = "independent";
+    std::string sampler = "sobol";
     std::vector<int> resolution, cell;
     std::vector<float> adaptive;
     int accumulate = 1;
@@ -174,9 +174,9 @@ void add_scene_options(CLI::App& app, Options& o) {
                    "uses 0.65; 1 = no roulette)")
         ->type_name("throughput|sqrt|P");
     app.add_option("--sampler", o.sampler,
-                   "Where each sample's random numbers come from: independent (default; the per-sample "
-                   "PCG32 streams of earlier versions) | stratified (jittered strata per dimension) | "
-                   "sobol (Owen-scrambled Sobol, Burley 2020) | zsobol (the same along a Morton curve "
+                   "Where each sample's random numbers come from: independent (the per-sample PCG32 "
+                   "streams of earlier versions) | stratified (jittered strata per dimension) | "
+                   "sobol (default; Owen-scrambled Sobol, Burley 2020) | zsobol (the same along a Morton curve "
                    "over pixels, blue-noise error, Ahmed and Wonka 2020) | pmj02 (progressive "
                    "multi-jittered (0,2), Christensen et al. 2018). Images stay identical for any -t")
         ->check(CLI::IsMember({"independent", "stratified", "sobol", "zsobol", "pmj02"}));
