@@ -199,19 +199,12 @@ Vec3f PathIntegrator::li(const accel::Ray& camera_ray, SampleContext& ctx) const
         float q = 0.0f;
         bool goes_on = true;
         if (s_.throughput_roulette() && bounce >= 2) {
-            q = roulette_q(beta, eta_scale, s_.sqrt_roulette());
-            goes_on = roulette_survives(q, ctx.get1d(d + dims::kRoulette));
+            goes_on = roulette(beta, eta_scale, d, ctx, q);
             if (!goes_on && !emission_counts) break;
         }
-        const accel::Ray ray = spawn_ray(it.p, it.p_error, it.ng, wi, scale_, s_.offset);
         const Vec3f p_here = it.p, n_here = it.ns;
-        const bool found = ctx.accel.intersect(ray, hit, ctx.stats);
-        // A path that ends here needs the hit only if it emits.
-        const bool needed = found && (goes_on || emissive(hit));
-        if (needed) {
-            it = make_interaction(scene_, geometry_, ray, hit);
-            if (textured_) footprint(it, false, wi);
-        }
+        bool needed;
+        const bool found = trace_bounce(it, wi, goes_on, hit, ctx, needed);
         // Without MIS, light that a bounce ray finds is not added: direct lighting counted
         // all of it at this vertex (under --lights=course a bounce is black to emission,
         // as in the course).
@@ -280,19 +273,13 @@ bool PathIntegrator::scatter(const scenes::Material& m, int bounce, Interaction&
     float q = 0.0f;
     bool goes_on = true;
     if (s_.throughput_roulette() && !last && bounce >= 2) {
-        q = roulette_q(beta, eta_scale, s_.sqrt_roulette());
-        goes_on = roulette_survives(q, ctx.get1d(d + dims::kRoulette));
+        goes_on = roulette(beta, eta_scale, d, ctx, q);
         if (!goes_on && !emission_counts) return false;
     }
-    const accel::Ray ray = spawn_ray(it.p, it.p_error, it.ng, wi, scale_, s_.offset);
     accel::Hit hit;
     const Vec3f n_here = it.ns, p_here = it.p;
-    const bool found = ctx.accel.intersect(ray, hit, ctx.stats);
-    const bool needed = found && (goes_on || emissive(hit));
-    if (needed) {
-        it = make_interaction(scene_, geometry_, ray, hit);
-        if (textured_) footprint(it, false, wi);
-    }
+    bool needed;
+    const bool found = trace_bounce(it, wi, goes_on, hit, ctx, needed);
     // Through a delta lobe light sampling cannot find the emitter or the environment: all
     // of it is counted here, at the path length of the previous vertex's direct light.
     // Through a non-delta lobe it is weighted against light sampling of the same emitter
@@ -306,6 +293,24 @@ bool PathIntegrator::scatter(const scenes::Material& m, int bounce, Interaction&
     roulette_reweigh(beta, q);
     wo = -wi;
     return !last;
+}
+
+bool PathIntegrator::roulette(const Vec3f& beta, float eta_scale, uint32_t d, SampleContext& ctx, float& q) const {
+    q = roulette_q(beta, eta_scale, s_.sqrt_roulette());
+    return roulette_survives(q, ctx.get1d(d + dims::kRoulette));
+}
+
+bool PathIntegrator::trace_bounce(Interaction& it, const Vec3f& wi, bool goes_on, accel::Hit& hit,
+                                  SampleContext& ctx, bool& moved) const {
+    const accel::Ray ray = spawn_ray(it.p, it.p_error, it.ng, wi, scale_, s_.offset);
+    const bool found = ctx.accel.intersect(ray, hit, ctx.stats);
+    // A path that ends here needs the hit only if it emits.
+    moved = found && (goes_on || emissive(hit));
+    if (moved) {
+        it = make_interaction(scene_, geometry_, ray, hit);
+        if (textured_) footprint(it, false, wi);
+    }
+    return found;
 }
 
 bool PathIntegrator::emissive(const accel::Hit& hit) const {

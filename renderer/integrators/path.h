@@ -42,6 +42,15 @@ private:
     template <class W>
     Vec3f found_light(const Interaction* next, const accel::Hit& hit, const Vec3f& p, const Vec3f& n,
                       const Vec3f& wi, W&& weight) const;
+    /// The throughput roulette at a vertex whose dimensions start at d: the chance to end
+    /// into q; true when the path goes on (it then carries beta / (1 - q) once the light
+    /// its bounce ray found is added).
+    bool roulette(const Vec3f& beta, float eta_scale, uint32_t d, SampleContext& ctx, float& q) const;
+    /// Traces the bounce ray from `it` toward wi; true when it hits. `it` becomes the hit's
+    /// interaction (moved) where the path goes on or the hit emits: a path that ends needs
+    /// only an emitter's light.
+    bool trace_bounce(Interaction& it, const Vec3f& wi, bool goes_on, accel::Hit& hit, SampleContext& ctx,
+                      bool& moved) const;
     /// Does the surface a ray hit emit (its material; before any interaction is made)?
     bool emissive(const accel::Hit& hit) const;
     /// Is the light sample's shadow ray (segment, or ray for infinitely far lights) blocked?
