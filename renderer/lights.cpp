@@ -311,6 +311,47 @@ LightSet::LightSet(const scenes::Scene& scene, LightModel model, std::vector<std
                             : "the scene has no lights but glow maps: adding a constant white environment "
                               "(radiance 1)");
     }
+    build_guard(scene);
+}
+
+void LightSet::build_guard(const scenes::Scene& scene) {
+    // Only where every emitter a ray can find is a world-space triangle of tris_, few of
+    // them, and no environment waits behind a miss; else may_emit_toward says yes.
+    if (model_ != LightModel::Mesh || env_ >= 0 || tris_.size() > kGuardTris) return;
+    const std::vector<int32_t> owner = scene.mesh_prototypes();
+    for (size_t mi = 0; mi < scene.meshes.size(); ++mi) {
+        const uint32_t m = scene.meshes[mi].material;
+        if (m < scene.materials.size() && scene.materials[m].is_emissive() && (owner[mi] >= 0 || mesh_light_.size() <= mi || mesh_light_[mi] < 0))
+            return;
+    }
+    for (const scenes::Sphere& sp : scene.spheres)
+        if (sp.material < scene.materials.size() && scene.materials[sp.material].is_emissive()) return;
+    guarded_ = true;
+}
+
+bool LightSet::may_emit_toward(const accel::Ray& ray) const {
+    if (!guarded_) return true;
+    // Möller-Trumbore against each emissive triangle, widened: barycentrics within
+    // kGuardSlack outside the edges, any t from just behind the origin, and a ray nearly in
+    // the triangle's plane counted as a hit, so every ray the backend could find an
+    // emitter with says yes.
+    constexpr float kGuardSlack = 1e-3f;
+    for (const Tri& t : tris_) {
+        const Vec3f pv = accel::cross(ray.dir, t.e2);
+        const float det = accel::dot(t.e1, pv);
+        if (!(std::abs(det) > 1e-7f * accel::length(t.e1) * accel::length(t.e2) * accel::length(ray.dir)))
+            return true;
+        const float inv = 1.0f / det;
+        const Vec3f sv = ray.org - t.v0;
+        const float u = accel::dot(sv, pv) * inv;
+        if (!(u >= -kGuardSlack && u <= 1.0f + kGuardSlack)) continue;
+        const Vec3f qv = accel::cross(sv, t.e1);
+        const float v = accel::dot(ray.dir, qv) * inv;
+        if (!(v >= -kGuardSlack && u + v <= 1.0f + kGuardSlack)) continue;
+        const float tt = accel::dot(t.e2, qv) * inv;
+        if (tt >= -kGuardSlack * (accel::length(sv) + accel::length(t.e1) + accel::length(t.e2))) return true;
+    }
+    return false;
 }
 
 uint32_t LightSet::pick(const AliasBin* bins, uint32_t n, float u, float* rest) {

@@ -107,11 +107,10 @@ public:
     /// The emitter-visibility policy, consulted wherever an integrator adds emission
     /// found by a ray (camera rays, -H direct rays): the radiance the surface at `it`
     /// emits toward `wo`, zero when it does not emit that way. Consistent with sample():
-    /// a side that is sampled is a side that is seen. Emission found by diffuse bounce
-    /// rays is never added: in Mesh it was counted by light sampling at the previous
-    /// vertex, in Course it is black (the course's bounce). Non-diffuse BSDF bounces add
-    /// it with an MIS weight in Mesh, and in Course only through delta lobes (mirror,
-    /// glass), which light sampling cannot serve.
+    /// a side that is sampled is a side that is seen. Bounce rays add it with an MIS
+    /// weight in Mesh (at diffuse vertices too, under --strategy=mis), and in Course only
+    /// through delta lobes (mirror, glass), which light sampling cannot serve; a diffuse
+    /// bounce in Course is black to it (the course's bounce).
     Vec3f emitted(const Interaction& it, const Vec3f& wo) const;
 
     /// For multiple importance sampling (renderer/integrators/path.cpp): the light that
@@ -137,6 +136,13 @@ public:
     /// for an instanced one, in instance `inst`.
     float pdf(size_t i, const Vec3f& p, const Vec3f& n, const Vec3f& wi, float dist, const Vec3f& nq,
               uint32_t prim = 0, uint32_t inst = accel::kInvalidId) const;
+
+    /// Could a ray from ray.org along ray.dir find an emitter (or the environment)? False
+    /// only where every emitter is one of a few world-space triangles and the ray passes
+    /// clear of all of them ("emitter guard" in renderer/README.md): a path the roulette
+    /// ends then skips the trace that would only look for emission. Conservative: true
+    /// whenever in doubt.
+    bool may_emit_toward(const accel::Ray& ray) const;
 
     /// Summary line per kind, for stderr.
     std::string summary() const;
@@ -174,6 +180,10 @@ private:
     /// vertices, unit emitting normal, area, centroid and reach, as a world-space
     /// emitter's Tri would hold them, made at the sample (or pdf) that needs it.
     static Tri placed(const Tri& t, const Placement& place);
+    /// Decides whether may_emit_toward can answer no for this scene (guarded_).
+    void build_guard(const scenes::Scene& scene);
+    static constexpr size_t kGuardTris = 16;
+    bool guarded_ = false;
     /// sample() of an instanced mesh light (Light::num_inst > 0).
     bool sample_instanced(const Light& l, const Vec3f& p, float choice, Vec2f u2, LightSample& out) const;
     /// Probability with which instanced light `l` picks its placement number k (the gap

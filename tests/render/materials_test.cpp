@@ -325,6 +325,70 @@ TEST(Mis, DiffuseCeilingJustAboveATwoSidedPanel) {
                 e[1][0].se);
 }
 
+TEST(Mis, EmitterGuardSaysYesToEveryRayThatFindsThePanel) {
+    // LightSet::may_emit_toward lets a path the roulette ends skip the trace that would
+    // only look for emission. It must say yes to every ray the backend finds an emitter
+    // with (else light is lost), and no to most others (else it saves nothing).
+    World w;
+    w.scene.up = Vec3f(0, 0, 1);
+    scenes::Material diffuse;
+    diffuse.albedo = Vec3f(0.7f);
+    w.scene.materials.push_back(diffuse);
+    scenes::Material panel;
+    panel.emission = Vec3f(5.0f);
+    w.scene.materials.push_back(panel);
+    w.scene.meshes.push_back(quad(Vec3f(-2, -2, 0), Vec3f(2, -2, 0), Vec3f(2, 2, 0), Vec3f(-2, 2, 0)));
+    w.scene.meshes.push_back(quad(Vec3f(-2, -2, 1.5f), Vec3f(-2, 2, 1.5f), Vec3f(2, 2, 1.5f), Vec3f(2, -2, 1.5f)));
+    w.scene.meshes.push_back(quad(Vec3f(-0.4f, -0.3f, 1.49f), Vec3f(0.4f, -0.3f, 1.49f),
+                                  Vec3f(0.4f, 0.3f, 1.49f), Vec3f(-0.4f, 0.3f, 1.49f), 1));
+    w.build(IntegratorSettings{});
+    Rng rng(5, 6);
+    int found = 0, said_no = 0, lost = 0;
+    const int n = 200000;
+    for (int i = 0; i < n; ++i) {
+        accel::Ray r;
+        // Origins in the room and in the slit above the panel; directions over the sphere.
+        r.org = Vec3f(4 * rng.next_float() - 2, 4 * rng.next_float() - 2,
+                      i % 4 ? 1.49f * rng.next_float() : 1.49f + 0.01f * rng.next_float());
+        if (i % 2) {
+            r.dir = uniform_sphere(rng.next_float(), rng.next_float());
+        } else {
+            // Toward the panel's outline or its diagonal, within a hair of it.
+            const float a = rng.next_float(), e = (rng.next_float() - 0.5f) * 2e-3f;
+            const int side = int(rng.next_float() * 5);
+            const Vec3f target = side == 0   ? Vec3f(-0.4f + 0.8f * a, -0.3f + e, 1.49f)
+                                 : side == 1 ? Vec3f(-0.4f + 0.8f * a, 0.3f + e, 1.49f)
+                                 : side == 2 ? Vec3f(-0.4f + e, -0.3f + 0.6f * a, 1.49f)
+                                 : side == 3 ? Vec3f(0.4f + e, -0.3f + 0.6f * a, 1.49f)
+                                             : Vec3f(-0.4f + 0.8f * a + e, -0.3f + 0.6f * a, 1.49f);
+            r.dir = accel::normalize(target - r.org);
+            if (!(accel::dot(r.dir, r.dir) > 0.5f)) r.dir = Vec3f(0, 0, 1);
+        }
+        accel::Hit hit;
+        accel::TraceStats st;
+        const bool emits = w.accel->intersect(r, hit, st) &&
+                           w.scene.materials[w.geometry->material(hit.geom_id, hit.prim_id)].is_emissive();
+        const bool yes = w.lights->may_emit_toward(r);
+        found += emits;
+        said_no += !yes;
+        lost += emits && !yes;
+    }
+    EXPECT_EQ(lost, 0) << "rays that find the panel but the guard turned away";
+    EXPECT_GT(found, n / 10) << "rays that find the panel";
+    EXPECT_GT(said_no, n / 3) << "the guard turns most rays that miss away";
+    // With an environment every miss finds light: the guard always says yes.
+    scenes::Light env;
+    env.type = scenes::LightType::Environment;
+    env.radiance = Vec3f(1.0f);
+    w.scene.lights.push_back(env);
+    w.build(IntegratorSettings{});
+    accel::Ray away;
+    away.org = Vec3f(0, 0, 0.5f);
+    away.dir = Vec3f(0, 0, -1);
+    EXPECT_TRUE(w.lights->may_emit_toward(away));
+    std::printf("guard: %d of %d rays found the panel, %d turned away, %d lost\n", found, n, said_no, lost);
+}
+
 namespace {
 
 /// The CS184 Cornell boxes' "one light, two descriptions" in miniature: a floor of
