@@ -81,7 +81,6 @@ void roulette_reweigh(Vec3f& beta, float q) {
     if (q > 0.0f) beta = beta / (1.0f - q);
 }
 
-
 /// Veach's power heuristic (beta = 2; Veach 1997, 9.2.4): the weight of the strategy
 /// with density `a` against one with density `b` (each already times its sample count).
 float mis_weight(float a, float b) {
@@ -170,7 +169,7 @@ Vec3f PathIntegrator::li(const accel::Ray& camera_ray, SampleContext& ctx) const
         if (accel::dot(it.ns, it.ng) < 0) it.ns = -it.ns;
 
         // Light found by this vertex's bounce ray is weighed against its light samples
-        // where both strategies run (see diffuse_mis); at the last vertex light sampling
+        // where both strategies run (diffuse_mis_); at the last vertex light sampling
         // alone carries it.
         const bool mis = diffuse_mis_ && bounce < s_.max_depth;
         if (counts(bounce))
