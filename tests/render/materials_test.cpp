@@ -282,14 +282,12 @@ TEST(Mis, GlossyFloorWithLightsOfSeveralSizes) {
     std::printf("summed variance: mis %.4g, light %.4g, bsdf %.4g\n", var_sum[0], var_sum[1], var_sum[2]);
 }
 
-TEST(Mis, DiffuseCeilingJustAboveATwoSidedPanel) {
-    // The Cornell boxes' slit in miniature: a diffuse ceiling 0.01 above a two-sided
-    // emissive panel of two triangles. From a ceiling point above the panel, the triangle
-    // below fills nearly a hemisphere and its neighbour a sliver: light sampling picks
-    // either by area, so half its samples are weak, while the bounce's cosine sampling
-    // hits the panel almost surely. MIS at diffuse vertices (--strategy=mis) must agree
-    // with light sampling alone and have less variance there, and agree in a closed room
-    // at depth 4 where every vertex weighs both.
+namespace {
+
+/// The Cornell boxes' slit in miniature: a diffuse floor (z = 0) and ceiling (z = 1.5),
+/// albedo 0.7, and 0.01 below the ceiling a two-sided emissive panel (radiance 5) of two
+/// triangles, 0.8 x 0.6. Not built.
+World slit_world() {
     World w;
     w.scene.up = Vec3f(0, 0, 1);
     scenes::Material diffuse;
@@ -302,6 +300,20 @@ TEST(Mis, DiffuseCeilingJustAboveATwoSidedPanel) {
     w.scene.meshes.push_back(quad(Vec3f(-2, -2, 1.5f), Vec3f(-2, 2, 1.5f), Vec3f(2, 2, 1.5f), Vec3f(2, -2, 1.5f)));
     w.scene.meshes.push_back(quad(Vec3f(-0.4f, -0.3f, 1.49f), Vec3f(0.4f, -0.3f, 1.49f),
                                   Vec3f(0.4f, 0.3f, 1.49f), Vec3f(-0.4f, 0.3f, 1.49f), 1));
+    return w;
+}
+
+}  // namespace
+
+TEST(Mis, DiffuseCeilingJustAboveATwoSidedPanel) {
+    // The Cornell boxes' slit in miniature: a diffuse ceiling 0.01 above a two-sided
+    // emissive panel of two triangles. From a ceiling point above the panel, the triangle
+    // below fills nearly a hemisphere and its neighbour a sliver: light sampling picks
+    // either by area, so half its samples are weak, while the bounce's cosine sampling
+    // hits the panel almost surely. MIS at diffuse vertices (--strategy=mis) must agree
+    // with light sampling alone and have less variance there, and agree in a closed room
+    // at depth 4 where every vertex weighs both.
+    World w = slit_world();
     using S = IntegratorSettings::Strategy;
     const int n = 20000;
     // Rays up from inside the slit onto the ceiling above the panel, and down onto the floor.
@@ -329,18 +341,7 @@ TEST(Mis, EmitterGuardSaysYesToEveryRayThatFindsThePanel) {
     // LightSet::may_emit_toward lets a path the roulette ends skip the trace that would
     // only look for emission. It must say yes to every ray the backend finds an emitter
     // with (else light is lost), and no to most others (else it saves nothing).
-    World w;
-    w.scene.up = Vec3f(0, 0, 1);
-    scenes::Material diffuse;
-    diffuse.albedo = Vec3f(0.7f);
-    w.scene.materials.push_back(diffuse);
-    scenes::Material panel;
-    panel.emission = Vec3f(5.0f);
-    w.scene.materials.push_back(panel);
-    w.scene.meshes.push_back(quad(Vec3f(-2, -2, 0), Vec3f(2, -2, 0), Vec3f(2, 2, 0), Vec3f(-2, 2, 0)));
-    w.scene.meshes.push_back(quad(Vec3f(-2, -2, 1.5f), Vec3f(-2, 2, 1.5f), Vec3f(2, 2, 1.5f), Vec3f(2, -2, 1.5f)));
-    w.scene.meshes.push_back(quad(Vec3f(-0.4f, -0.3f, 1.49f), Vec3f(0.4f, -0.3f, 1.49f),
-                                  Vec3f(0.4f, 0.3f, 1.49f), Vec3f(-0.4f, 0.3f, 1.49f), 1));
+    World w = slit_world();
     w.build(IntegratorSettings{});
     Rng rng(5, 6);
     int found = 0, said_no = 0, lost = 0;
