@@ -326,6 +326,11 @@ void LightSet::build_guard(const scenes::Scene& scene) {
     }
     for (const scenes::Sphere& sp : scene.spheres)
         if (sp.material < scene.materials.size() && scene.materials[sp.material].is_emissive()) return;
+    // The ray-independent parts of may_emit_toward's tolerances, once per triangle.
+    for (const Tri& t : tris_) {
+        const float e1 = accel::length(t.e1), e2 = accel::length(t.e2);
+        guard_.push_back({1e-7f * e1 * e2, kGuardSlack * (e1 + e2)});
+    }
     guarded_ = true;
 }
 
@@ -335,12 +340,12 @@ bool LightSet::may_emit_toward(const accel::Ray& ray) const {
     // kGuardSlack outside the edges, any t from just behind the origin, and a ray nearly in
     // the triangle's plane counted as a hit, so every ray the backend could find an
     // emitter with says yes.
-    constexpr float kGuardSlack = 1e-3f;
-    for (const Tri& t : tris_) {
+    const float dir_len = accel::length(ray.dir);
+    for (size_t k = 0; k < tris_.size(); ++k) {
+        const Tri& t = tris_[k];
         const Vec3f pv = accel::cross(ray.dir, t.e2);
         const float det = accel::dot(t.e1, pv);
-        if (!(std::abs(det) > 1e-7f * accel::length(t.e1) * accel::length(t.e2) * accel::length(ray.dir)))
-            return true;
+        if (!(std::abs(det) > guard_[k].det_floor * dir_len)) return true;
         const float inv = 1.0f / det;
         const Vec3f sv = ray.org - t.v0;
         const float u = accel::dot(sv, pv) * inv;
@@ -349,7 +354,7 @@ bool LightSet::may_emit_toward(const accel::Ray& ray) const {
         const float v = accel::dot(ray.dir, qv) * inv;
         if (!(v >= -kGuardSlack && u + v <= 1.0f + kGuardSlack)) continue;
         const float tt = accel::dot(t.e2, qv) * inv;
-        if (tt >= -kGuardSlack * (accel::length(sv) + accel::length(t.e1) + accel::length(t.e2))) return true;
+        if (tt >= -(kGuardSlack * accel::length(sv) + guard_[k].t_slack)) return true;
     }
     return false;
 }

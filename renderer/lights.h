@@ -183,7 +183,14 @@ private:
     /// Decides whether may_emit_toward can answer no for this scene (guarded_).
     void build_guard(const scenes::Scene& scene);
     static constexpr size_t kGuardTris = 16;
+    static constexpr float kGuardSlack = 1e-3f;
     bool guarded_ = false;
+    /// Per triangle of tris_, where guarded_: the determinant below which a ray counts as
+    /// in its plane (times the ray's length), and the t slack from its edges.
+    struct GuardTri {
+        float det_floor, t_slack;
+    };
+    std::vector<GuardTri> guard_;
     /// sample() of an instanced mesh light (Light::num_inst > 0).
     bool sample_instanced(const Light& l, const Vec3f& p, float choice, Vec2f u2, LightSample& out) const;
     /// Probability with which instanced light `l` picks its placement number k (the gap

@@ -58,7 +58,7 @@ struct Options {
     std::string nodes = "auto", lights_mode, offset = "error-bound", strategy = "mis", texture_filter = "trilinear";
     std::string output;
     std::string rr = "throughput";  ///< --rr: "throughput" or a probability in (0, 1]
-    std::string sampler = "sobol";
+    std::string sampler = renderer::sampler_name(renderer::RenderSettings{}.sampler);
     std::vector<int> resolution, cell;
     std::vector<float> adaptive;
     int accumulate = 1;
