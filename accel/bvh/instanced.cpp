@@ -13,85 +13,6 @@
 #include "accel/primitive.h"
 
 namespace accel::bvh {
-namespace {
-
-/// Collapses the top level's binary tree into 8-wide nodes, greedily: a wide node takes
-/// its binary node's two children and opens the largest-area interior one until eight
-/// lanes are filled (Wald, Benthin, Boulos 2008, "Getting Rid of Packets"; the flat
-/// trees use the SAH-optimal collapse of Ylitie et al. 2017, wide.cpp, whose leaves are
-/// triangle blocks). Leaf lanes: kLeaf | first placement (leaf order), count = placements.
-class TopCollapse {
-public:
-    TopCollapse(const std::vector<Node>& nodes, TraversalVector<WideNode>& out) : nodes_(nodes), out_(out) {}
-
-    void run() {
-        // A full wide node takes seven binary interior nodes (n - 1 of them for n
-        // leaves, two binary nodes per leaf): about 2/14 of the binary nodes, more where
-        // lanes stay empty; whatever the guess, the array is cut to size after.
-        out_.reserve(nodes_.size() / 12 + 1);
-        make(0);
-        out_.shrink_to_fit();
-    }
-
-private:
-    /// Writes the wide node for binary node n (as if interior; a leaf root gets one lane).
-    uint32_t make(uint32_t n) {
-        uint32_t lanes[kWidth];
-        int k = 0;
-        if (nodes_[n].is_leaf()) {
-            lanes[k++] = n;
-        } else {
-            lanes[k++] = nodes_[n].offset;
-            lanes[k++] = nodes_[n].offset + 1;
-            while (k < kWidth) {
-                int best = -1;
-                float area = -1.0f;
-                for (int i = 0; i < k; ++i)
-                    if (!nodes_[lanes[i]].is_leaf() && nodes_[lanes[i]].bounds().surface_area() > area)
-                        best = i, area = nodes_[lanes[i]].bounds().surface_area();
-                if (best < 0) break;
-                const uint32_t c = nodes_[lanes[best]].offset;
-                lanes[best] = c;
-                lanes[k++] = c + 1;
-            }
-        }
-        // Lanes by surface area, largest first: the any-hit walk enters the lowest hit
-        // lane first, and a ray meets a box with a chance that grows with its area (the
-        // SAH's own argument, MacDonald and Booth 1990), so the likeliest occluder comes
-        // first (accel/DECISIONS.md, "top-level any-hit order"). The closest-hit walk
-        // orders by distance and is unaffected.
-        std::sort(lanes, lanes + k, [&](uint32_t a, uint32_t b) {
-            return nodes_[a].bounds().surface_area() > nodes_[b].bounds().surface_area();
-        });
-        const uint32_t self = uint32_t(out_.size());
-        out_.emplace_back();
-        for (int i = 0; i < kWidth; ++i) {
-            WideNode& w = out_[self];
-            if (i >= k) {
-                for (int a = 0; a < 3; ++a) w.b[a][i] = kInfinity, w.b[a + 3][i] = -kInfinity;
-                w.child[i] = WideNode::kEmpty;
-                w.count[i] = 0;
-                continue;
-            }
-            const Node& b = nodes_[lanes[i]];
-            for (int r = 0; r < 6; ++r) w.b[r][i] = b.b[r];
-            if (b.is_leaf()) {
-                w.child[i] = WideNode::kLeaf | b.offset;
-                w.count[i] = b.count();
-            } else {
-                const uint32_t c = make(lanes[i]);  // may grow out_: index again
-                out_[self].child[i] = c;
-                out_[self].count[i] = 0;
-            }
-        }
-        return self;
-    }
-
-    const std::vector<Node>& nodes_;
-    TraversalVector<WideNode>& out_;
-};
-
-}  // namespace
 
 InstancedBase::InstancedBase() = default;
 InstancedBase::~InstancedBase() = default;
@@ -173,7 +94,7 @@ bool InstancedBase::build(std::span<const GeometryView> geometry, const AccelOpt
         });
         for (uint32_t k = 0; k < kept.size(); ++k) bounds_.extend(box_of(k));
         if (!tree.nodes.empty()) {
-            TopCollapse(tree.nodes, top_.nodes).run();
+            collapse_top(tree, top_.nodes);
             const float* lo = &tree.nodes[0].b[0];
             std::copy(lo, lo + 6, top_.root);
             if (top_quantized) compressed &= quantize(top_);

@@ -1033,7 +1033,7 @@ TopClosest traverse_top(const InstancedBase& s, const Ray& ray, TraceStats& stat
 }
 
 /// Any hit of the two-level BVH: the top tree walked with the hit child of the lowest
-/// lane first, which the top collapse makes the largest by surface area (instanced.cpp),
+/// lane first, which the top collapse makes the largest by surface area (wide.cpp, collapse_top),
 /// P::push for the rest (not the flat occlude's nearest-first: shadow rays 1.4-2.0x
 /// faster on instanced forests and fields; accel/DECISIONS.md, "top-level any-hit
 /// order"), each placement's bottom tree by occlude.

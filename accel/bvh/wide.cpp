@@ -70,7 +70,7 @@ private:
         const float area = b.bounds().surface_area();
         if (b.is_leaf()) {
             r.prims = b.count();
-            r.types = 1u << unsigned(g_[order_[b.offset].geom].type);
+            r.types = g_.empty() ? 1u : 1u << unsigned(g_[order_[b.offset].geom].type);
             for (int i = 1; i <= kWidth; ++i) r.c[i] = area * CollapseCost::leaf(r.prims);
             return r;
         }
@@ -457,6 +457,76 @@ WideBvh collapse(const BinaryTree& tree, std::span<const GeometryView> geometry,
     else
         c.run();
     return w;
+}
+
+void collapse_top(const BinaryTree& tree, TraversalVector<WideNode>& out) {
+    out.clear();
+    if (tree.nodes.empty()) return;
+    const std::vector<Node>& nodes = tree.nodes;
+    // max_leaf 0: no interior node becomes a leaf, so the plan only shares lanes out,
+    // filling the wide nodes where the greedy collapse left them half empty.
+    const Plan plan(nodes, tree.order, {}, 0);
+    // The lanes binary node b takes when given `lanes` of them (Collapser::assign).
+    const auto assign = [&](auto& self, uint32_t b, int lanes, uint32_t (&kids)[kWidth], int& n) -> void {
+        if (nodes[b].is_leaf()) {
+            kids[n++] = b;
+            return;
+        }
+        while (lanes >= 2 && plan.lanes(b, lanes) == 0) --lanes;
+        if (lanes == 1) {
+            kids[n++] = b;
+            return;
+        }
+        const int left = plan.lanes(b, lanes);
+        self(self, nodes[b].offset, left, kids, n);
+        self(self, nodes[b].offset + 1, lanes - left, kids, n);
+    };
+    const auto make = [&](auto& self, uint32_t n) -> uint32_t {
+        uint32_t lanes[kWidth];
+        int k = 0;
+        if (nodes[n].is_leaf()) {
+            lanes[k++] = n;
+        } else {
+            const int left = plan.split(n);
+            assign(assign, nodes[n].offset, left, lanes, k);
+            assign(assign, nodes[n].offset + 1, kWidth - left, lanes, k);
+        }
+        // Lanes by surface area, largest first: the any-hit walk enters the lowest hit
+        // lane first, and a ray meets a box with a chance that grows with its area (the
+        // SAH's own argument, MacDonald and Booth 1990), so the likeliest occluder comes
+        // first (accel/DECISIONS.md, "top-level any-hit order"). The closest-hit walk
+        // orders by distance and is unaffected.
+        std::sort(lanes, lanes + k, [&](uint32_t a, uint32_t b) {
+            return nodes[a].bounds().surface_area() > nodes[b].bounds().surface_area();
+        });
+        const uint32_t me = uint32_t(out.size());
+        out.emplace_back();
+        for (int i = 0; i < kWidth; ++i) {
+            if (i >= k) {
+                WideNode& w = out[me];
+                for (int a = 0; a < 3; ++a) w.b[a][i] = kInfinity, w.b[a + 3][i] = -kInfinity;
+                w.child[i] = WideNode::kEmpty;
+                w.count[i] = 0;
+                continue;
+            }
+            const Node& b = nodes[lanes[i]];
+            for (int r = 0; r < 6; ++r) out[me].b[r][i] = b.b[r];
+            if (b.is_leaf()) {
+                out[me].child[i] = WideNode::kLeaf | b.offset;
+                out[me].count[i] = b.count();
+            } else {
+                const uint32_t c = self(self, lanes[i]);  // may grow out: index again
+                out[me].child[i] = c;
+                out[me].count[i] = 0;
+            }
+        }
+        return me;
+    };
+    // A full wide node takes seven binary interior nodes (n - 1 of them for n leaves):
+    // about 1/14 of the binary nodes; the array is cut to size after.
+    out.reserve(nodes.size() / 13 + 1);
+    make(make, 0);
+    out.shrink_to_fit();
 }
 
 }  // namespace accel::bvh

@@ -182,6 +182,12 @@ constexpr uint64_t kLeafHintBytes = uint64_t(24) << 20;
 WideBvh collapse(const BinaryTree& tree, std::span<const GeometryView> geometry, TriangleTest test,
                  uint32_t max_leaf, LeafPrefetch prefetch = LeafPrefetch::Auto);
 
+/// Collapses a two-level BVH's top tree, whose binary leaves each hold one placement,
+/// into 8-wide nodes by the same plan (no subtree merged into a leaf): leaf lanes are
+/// kLeaf | first placement (leaf order), count = placements; lanes by surface area,
+/// largest first (the any-hit walk enters the lowest hit lane first).
+void collapse_top(const BinaryTree& tree, TraversalVector<WideNode>& out);
+
 /// Bytes the traversal arrays occupy.
 inline uint64_t wide_bytes(const WideBvh& w) {
     return w.nodes.capacity() * sizeof(WideNode) + w.qnodes.capacity() * sizeof(QuantNode) +
