@@ -128,10 +128,11 @@ std::unique_ptr<Accelerator> make_bvh(std::span<const GeometryView> geometry, co
                                       const InstanceSet& instances) {
     const Isa isa = resolve_isa(options.isa);
     if (!instances.empty()) {
-        // Each level's layout by its own size, as a flat tree's: the top tree's by the
-        // placements (at 10^7 of them, compressed nodes hold it in ~31 bytes per instance
-        // instead of ~60), the bottom trees' by the largest prototype (accel/DECISIONS.md,
-        // "two-level node layouts").
+        // The top tree keeps float nodes under Auto, at any size: on the 10^7-instance
+        // forest they trace camera rays 8 % faster than compressed ones, for 97 bytes per
+        // instance against 75 (the goal is 100). The bottom trees take the layout of the
+        // largest prototype's size, as a flat tree (accel/DECISIONS.md, "two-level node
+        // layouts").
         uint64_t most = 0;
         bool masked = false;
         for (const PrototypeView& p : instances.prototypes) {
@@ -142,7 +143,7 @@ std::unique_ptr<Accelerator> make_bvh(std::span<const GeometryView> geometry, co
         uint64_t world = 0;
         for (const GeometryView& g : geometry) masked |= g.masked(), world += g.num_prims;
         most = std::max(most, world);  // (an upper bound of the world tree's)
-        const bool top_q = resolve_layout(options.nodes, instances.instances.size() + 1) == NodeLayout::Quantized;
+        const bool top_q = options.nodes == NodeLayout::Quantized;
         const bool q = resolve_layout(options.nodes, most) == NodeLayout::Quantized;
         std::unique_ptr<bvh::InstancedBase> b = bvh::make_instanced(isa, options.triangle, top_q, q, masked);
         if (b->build(geometry, options, instances, isa, top_q, q)) return b;

@@ -15,14 +15,15 @@
 namespace accel::bvh {
 
 /// One leaf entry of the top tree: an instance, or the world-space geometry (inst ==
-/// kInvalidId, no transform). 56 bytes; the top tree's leaves index these in leaf order,
-/// so the entries a leaf holds are adjacent and no index array sits between them.
+/// kInvalidId, no transform). 52 bytes; the top tree's leaf lanes index these (leaf
+/// order), one placement each, and carry the bottom tree it places in the lane's count
+/// field, which the node test has just brought into the cache (accel/DECISIONS.md,
+/// "the bottom tree in the top leaf lane").
 struct Placement {
     Affine3f world_to_object;  ///< the inverse of InstanceView::object_to_world
-    uint32_t bottom;           ///< the tree it places (InstancedBase::bottom_wide_)
     uint32_t inst;             ///< Hit::inst_id: the instance's index in the InstanceSet
 };
-static_assert(sizeof(Placement) == 56);
+static_assert(sizeof(Placement) == 52);
 
 /// Everything of the two-level BVH that is not traversal (built and finished by baseline
 /// code, for the reason BvhBase gives).
@@ -40,11 +41,12 @@ public:
     bool build(std::span<const GeometryView> geometry, const AccelOptions& opt, const InstanceSet& instances,
                Isa isa, bool top_quantized, bool quantized);
     /// The hit of placement `p` found at (t, u, v) in lane `at` of a block of its bottom
-    /// tree: ids from the block (geometry ids made the caller's), the instance, and the
+    /// tree `bottom`: ids from the block (geometry ids made the caller's), the instance, and the
     /// normal carried to world space (to_world_normal, accel/primitive.h).
-    void finish(const Placement& p, BlockLane at, const Ray& ray, float t, float u, float v, Hit& hit) const;
+    void finish(const Placement& p, uint32_t bottom, BlockLane at, const Ray& ray, float t, float u, float v,
+                Hit& hit) const;
 
-    WideBvh top_;  ///< leaves: kLeaf | first placement, count = placements in the leaf
+    WideBvh top_;  ///< leaf lanes: child kLeaf | placement, count = its bottom tree
     std::vector<Placement> placements_;
     std::vector<const WideBvh*> bottom_wide_;  ///< per bottom tree: what traversal reads
     std::vector<uint32_t> geom_base_;          ///< per bottom tree: its geometry 0's id

@@ -909,6 +909,7 @@ public:
 struct TopClosest {
     Closest c;
     const Placement* at;
+    uint32_t bottom;
 };
 
 /// to_object_ray (accel/primitive.h) in this file's namespace, the same operations in the
@@ -934,12 +935,12 @@ PT_INLINE inline Ray object_ray(const Affine3f& a, const Ray& r, float t) {
 /// bottom traversal's t is the world one), unless p is the world-space geometry. The
 /// filter is told the world ray, the instance and the prototype's first geometry id.
 template <class P, TriangleTest Test, bool Count, bool Masked>
-PT_INLINE inline Closest trace_bottom(const InstancedBase& s, const Placement& p, const Ray& ray, float t,
-                                      TraceStats& stats) {
+PT_INLINE inline Closest trace_bottom(const InstancedBase& s, const Placement& p, uint32_t bottom, const Ray& ray,
+                                      float t, TraceStats& stats) {
     const Ray local = p.inst == kInvalidId ? Ray{ray.org, ray.dir, ray.t_min, t} : object_ray(p.world_to_object, ray, t);
-    const WideBvh& w = *s.bottom_wide_[p.bottom];
+    const WideBvh& w = *s.bottom_wide_[bottom];
     if constexpr (Masked)
-        return traverse<P, Test, Count, true, true>(w, local, stats, FilterArgs{&ray, p.inst, s.geom_base_[p.bottom]});
+        return traverse<P, Test, Count, true, true>(w, local, stats, FilterArgs{&ray, p.inst, s.geom_base_[bottom]});
     else
         return traverse<P, Test, Count, true>(w, local, stats);
 }
@@ -951,7 +952,7 @@ PT_INLINE inline Closest trace_bottom(const InstancedBase& s, const Placement& p
 template <class PT, class P, TriangleTest Test, bool Count, bool Masked>
 TopClosest traverse_top(const InstancedBase& s, const Ray& ray, TraceStats& stats) {
     const typename PT::Node* nodes = node_array<typename PT::Node>(s.top_);
-    TopClosest best{{ray.t_max, 0.0f, 0.0f, {}}, nullptr};
+    TopClosest best{{ray.t_max, 0.0f, 0.0f, {}}, nullptr, 0};
     if (!nodes) return best;
     float t = ray.t_max;
     uint64_t boxes = 0;
@@ -966,11 +967,10 @@ TopClosest traverse_top(const InstancedBase& s, const Ray& ray, TraceStats& stat
     uint32_t sp = 0, ref = 0, count = 0;
     for (;;) {
         if (ref & WideNode::kLeaf) {
+            // One placement per leaf lane, its bottom tree in the lane's count.
             const Placement* p = s.placements_.data() + (ref & ~WideNode::kLeaf);
-            for (const Placement* end = p + count; p != end; ++p) {
-                const Closest c = trace_bottom<P, Test, Count, Masked>(s, *p, ray, t, stats);
-                if (c.at.block) t = c.t, best = {c, p};
-            }
+            const Closest c = trace_bottom<P, Test, Count, Masked>(s, *p, count, ray, t, stats);
+            if (c.at.block) t = c.t, best = {c, p, count};
             box.limit(t);
             t_far = t * kFarScale;
         } else {
@@ -1054,17 +1054,14 @@ bool occlude_top(const InstancedBase& s, const Ray& ray, TraceStats& stats) {
     for (;;) {
         if (ref & WideNode::kLeaf) {
             const Placement* p = s.placements_.data() + (ref & ~WideNode::kLeaf);
-            for (const Placement* end = p + count; p != end; ++p) {
-                const Ray local = p->inst == kInvalidId ? ray : object_ray(p->world_to_object, ray, ray.t_max);
-                const WideBvh& w = *s.bottom_wide_[p->bottom];
-                bool hit;
-                if constexpr (Masked)
-                    hit = occlude<P, Test, Count, true, true>(w, local, stats,
-                                                              FilterArgs{&ray, p->inst, s.geom_base_[p->bottom]});
-                else
-                    hit = occlude<P, Test, Count, true>(w, local, stats);
-                if (hit) return finish(true);
-            }
+            const Ray local = p->inst == kInvalidId ? ray : object_ray(p->world_to_object, ray, ray.t_max);
+            const WideBvh& w = *s.bottom_wide_[count];
+            bool hit;
+            if constexpr (Masked)
+                hit = occlude<P, Test, Count, true, true>(w, local, stats, FilterArgs{&ray, p->inst, s.geom_base_[count]});
+            else
+                hit = occlude<P, Test, Count, true>(w, local, stats);
+            if (hit) return finish(true);
         } else {
             const auto& n = nodes[ref];
             if constexpr (Count) ++boxes;
@@ -1098,7 +1095,7 @@ public:
         const TopClosest c = stats.counting ? traverse_top<PT, P, Test, true, Masked>(*this, ray, stats)
                                             : traverse_top<PT, P, Test, false, Masked>(*this, ray, stats);
         if (!c.at) return false;
-        finish(*c.at, c.c.at, ray, c.c.t, c.c.u, c.c.v, hit);
+        finish(*c.at, c.bottom, c.c.at, ray, c.c.t, c.c.u, c.c.v, hit);
         return true;
     }
     bool occluded(const Ray& ray, TraceStats& stats) const override {
