@@ -650,10 +650,10 @@ MemoryEstimate estimate_memory(const Options& o, const renderer::SceneGeometry& 
         }
     }
     // Bytes per instance (placements of prototypes), above their primitives', measured on
-    // the forest of 10^7 placements (benchmarks/instancing.sh): ours 260 at the build's
-    // peak (the top level's binary tree and build records beside the placements) and 88
-    // kept with compressed top nodes (from 4M placements); float top nodes keep ~40 more.
-    // Embree keeps an instance object each: ~390 bytes, ~400 at the peak.
+    // the forest of 10^7 placements (benchmarks/instancing.sh): ours ~240 at the build's
+    // peak (the top level's binary tree and build records beside the placements), 97
+    // kept with the float top nodes of Auto and 75 with compressed ones (--nodes
+    // quantized). Embree keeps an instance object each: ~390 bytes, ~400 at the peak.
     const uint64_t instances = geometry.instances().instances.size();
     double build_i = 0, kept_i = 0;
     if (o.backend == "embree") {
@@ -661,10 +661,8 @@ MemoryEstimate estimate_memory(const Options& o, const renderer::SceneGeometry& 
     } else if (o.backend == "naive") {
         build_i = kept_i = 56;
     } else if (o.backend.rfind("plugin:", 0) != 0) {
-        const bool quantized_top = o.ao.nodes == accel::NodeLayout::Quantized ||
-                                   (o.ao.nodes == accel::NodeLayout::Auto && instances >= 4000000);
-        build_i = quantized_top ? 260 : 300;
-        kept_i = quantized_top ? 90 : 130;
+        build_i = 260;
+        kept_i = o.ao.nodes == accel::NodeLayout::Quantized ? 80 : 100;
     }
     MemoryEstimate e;
     e.loaded = mem::resident_bytes();
