@@ -184,8 +184,9 @@ WideBvh collapse(const BinaryTree& tree, std::span<const GeometryView> geometry,
 
 /// Collapses a two-level BVH's top tree, whose binary leaves each hold one placement,
 /// into 8-wide nodes by the same plan (no subtree merged into a leaf): leaf lanes are
-/// kLeaf | first placement (leaf order), count = placements; lanes by surface area,
-/// largest first (the any-hit walk enters the lowest hit lane first).
+/// kLeaf | placement (leaf order) with count 1, which the caller may reuse (instanced.cpp
+/// stores the placement's bottom tree there); lanes by surface area, largest first (the
+/// any-hit walk enters the lowest hit lane first).
 void collapse_top(const BinaryTree& tree, TraversalVector<WideNode>& out);
 
 /// Bytes the traversal arrays occupy.
