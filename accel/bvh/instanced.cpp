@@ -29,7 +29,7 @@ struct Cover {
     std::vector<float> lo[3], hi[3];
     Bounds3f whole;
 
-    Cover(const BvhBase& b) : whole(b.bounds()) {
+    explicit Cover(const BvhBase& b) : whole(b.bounds()) {
         const WideBvh& w = b.wide_;
         struct Part {
             Bounds3f box;
