@@ -650,10 +650,11 @@ MemoryEstimate estimate_memory(const Options& o, const renderer::SceneGeometry& 
         }
     }
     // Bytes per instance (placements of prototypes), above their primitives', measured on
-    // the forest of 10^7 placements (benchmarks/instancing.sh): ours ~240 at the build's
-    // peak (the top level's binary tree and build records beside the placements), 97
-    // kept with the float top nodes of Auto and 75 with compressed ones (--nodes
-    // quantized). Embree keeps an instance object each: ~390 bytes, ~400 at the peak.
+    // the forest of 10^7 placements (benchmarks/instancing.sh), rounded up: ours ~240 at
+    // the build's peak (the top level's binary tree and build records beside the
+    // placements), 97 kept with the float top nodes of Auto and 75 with compressed ones
+    // (--nodes quantized). Embree keeps an instance object each: ~390 bytes, ~400 at the
+    // peak.
     const uint64_t instances = geometry.instances().instances.size();
     double build_i = 0, kept_i = 0;
     if (o.backend == "embree") {

@@ -139,21 +139,20 @@ bool InstancedBase::build(std::span<const GeometryView> geometry, const AccelOpt
 
     // Placements: every instance whose prototype has something to hit, and the world.
     const uint32_t world_bottom = any_world ? uint32_t(bottoms_.size() - 1) : kInvalidId;
-    std::vector<Bounds3f> bottom_box(bottoms_.size());
     std::vector<Cover> cover;
     cover.reserve(bottoms_.size());
-    for (size_t b = 0; b < bottoms_.size(); ++b) bottom_box[b] = bottoms_[b]->bounds(), cover.emplace_back(*bottoms_[b]);
+    for (const auto& b : bottoms_) cover.emplace_back(*b);
     std::vector<uint32_t> kept;  // instance indices (kInvalidId: the world)
     kept.reserve(instances.instances.size() + 1);
     for (uint32_t i = 0; i < instances.instances.size(); ++i) {
         const uint32_t proto = instances.instances[i].prototype;
         info_.instanced_primitives += bottoms_[proto]->info_.primitives;
-        if (!bottom_box[proto].empty()) kept.push_back(i);
+        if (!cover[proto].whole.empty()) kept.push_back(i);
     }
     if (world_bottom != kInvalidId) kept.push_back(kInvalidId);
     const auto box_of = [&](uint32_t k) {
         const uint32_t i = kept[k];
-        if (i == kInvalidId) return bottom_box[world_bottom];
+        if (i == kInvalidId) return cover[world_bottom].whole;
         const InstanceView& iv = instances.instances[i];
         return cover[iv.prototype].world_box(iv.object_to_world);
     };

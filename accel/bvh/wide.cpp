@@ -48,16 +48,33 @@ public:
         if (!nodes.empty() && !nodes[0].is_leaf()) solve(0, 0);
     }
 
-    /// The lane split at interior node n made a wide node: lanes for its left child
-    /// (the right child gets kWidth minus that).
-    int split(uint32_t n) const { return d_[n][0]; }
+    /// The lanes of the wide node made from interior node n, in the plan's order: binary
+    /// leaves, and interior nodes given one lane (see leaf()). Returns their number.
+    int lanes_of(uint32_t n, uint32_t (&out)[kWidth]) const {
+        int k = 0;
+        share(nodes_[n].offset, d_[n][0], out, k);
+        share(nodes_[n].offset + 1, kWidth - d_[n][0], out, k);
+        return k;
+    }
     /// Interior node n given one lane: a leaf of all its primitives (else a wide node).
     bool leaf(uint32_t n) const { return nodes_[n].is_leaf() || d_[n][1] != 0; }
-    /// Interior node n given i >= 2 lanes: lanes for its left child, or 0 when it uses
-    /// only i - 1 of them.
-    int lanes(uint32_t n, int i) const { return d_[n][i]; }
 
 private:
+    /// Appends the lanes binary node b takes when given `lanes` of them: d_[b][i] is, for
+    /// i >= 2, the lanes for its left child, or 0 when it uses only i - 1 of them.
+    void share(uint32_t b, int lanes, uint32_t (&out)[kWidth], int& k) const {
+        if (!nodes_[b].is_leaf()) {
+            while (lanes >= 2 && d_[b][lanes] == 0) --lanes;
+            if (lanes >= 2) {
+                const int left = d_[b][lanes];
+                share(nodes_[b].offset, left, out, k);
+                share(nodes_[b].offset + 1, lanes - left, out, k);
+                return;
+            }
+        }
+        out[k++] = b;
+    }
+
     struct Costs {
         float c[kWidth + 1];
         uint32_t prims;
@@ -115,6 +132,19 @@ private:
     uint32_t max_leaf_;
     std::vector<std::array<int8_t, kWidth + 1>> d_;
 };
+
+/// Orders the lanes of a wide node by surface area, largest first (stable): the any-hit
+/// walks of masked trees and of the top tree enter the lowest hit lane first, and a ray
+/// meets a box with a chance that grows with its area (the SAH's own argument, MacDonald
+/// and Booth 1990), so the likeliest occluder comes first (accel/DECISIONS.md, "any-hit
+/// order of masked trees", "top-level any-hit order"). The closest-hit walks order by
+/// distance and are unaffected. (By hand: std::sort over eight lanes trips GCC 12's
+/// -Warray-bounds.)
+void by_area(const std::vector<Node>& nodes, uint32_t* lanes, int k) {
+    for (int i = 1; i < k; ++i)
+        for (int j = i; j > 0 && nodes[lanes[j]].bounds().surface_area() > nodes[lanes[j - 1]].bounds().surface_area(); --j)
+            std::swap(lanes[j], lanes[j - 1]);
+}
 
 class Collapser {
 public:
@@ -197,38 +227,22 @@ private:
     /// The lanes of the wide node made from binary interior node `binary`, as the plan
     /// shares them out.
     int gather(uint32_t binary, Kid (&kids)[kWidth]) const {
-        const int left = plan_.split(binary);
-        int n = 0;
-        assign(nodes_[binary].offset, left, kids, n);
-        assign(nodes_[binary].offset + 1, kWidth - left, kids, n);
-        // Trees with masked geometry: lanes by surface area, largest first, which the
-        // masked any-hit walk enters first (kernel.h, occlude; accel/DECISIONS.md,
-        // "any-hit order of masked trees"). Opaque trees keep the plan's order, and so
-        // their layout.
-        if (area_order_)
-            std::stable_sort(kids, kids + n, [&](const Kid& a, const Kid& b) {
-                return nodes_[a.binary].bounds().surface_area() > nodes_[b.binary].bounds().surface_area();
-            });
+        uint32_t lanes[kWidth];
+        const int n = plan_.lanes_of(binary, lanes);
+        // Trees with masked geometry: lanes by surface area (by_area). Opaque trees keep
+        // the plan's order, and so their layout.
+        if (area_order_) by_area(nodes_, lanes, n);
+        for (int i = 0; i < n; ++i) {
+            const uint32_t b = lanes[i];
+            const Node& c = nodes_[b];
+            if (c.is_leaf()) {
+                kids[i] = {b, true, c.offset, c.count()};
+            } else {
+                kids[i] = {b, plan_.leaf(b)};
+                if (kids[i].leaf) slots_under(b, kids[i].offset, kids[i].count);
+            }
+        }
         return n;
-    }
-
-    /// Appends the lanes binary node `b` takes when given `lanes` of them.
-    void assign(uint32_t b, int lanes, Kid (&kids)[kWidth], int& n) const {
-        const Node& c = nodes_[b];
-        if (c.is_leaf()) {
-            kids[n++] = {b, true, c.offset, c.count()};
-            return;
-        }
-        while (lanes >= 2 && plan_.lanes(b, lanes) == 0) --lanes;
-        if (lanes == 1) {
-            Kid k{b, plan_.leaf(b)};
-            if (k.leaf) slots_under(b, k.offset, k.count);
-            kids[n++] = k;
-            return;
-        }
-        const int left = plan_.lanes(b, lanes);
-        assign(c.offset, left, kids, n);
-        assign(c.offset + 1, lanes - left, kids, n);
     }
 
     /// The slots under binary node `b`: its leaves cover consecutive slots, from its
@@ -466,41 +480,14 @@ void collapse_top(const BinaryTree& tree, TraversalVector<WideNode>& out) {
     // max_leaf 0: no interior node becomes a leaf, so the plan only shares lanes out,
     // filling the wide nodes where the greedy collapse left them half empty.
     const Plan plan(nodes, tree.order, {}, 0);
-    // The lanes binary node b takes when given `lanes` of them (Collapser::assign).
-    const auto assign = [&](auto& self, uint32_t b, int lanes, uint32_t (&kids)[kWidth], int& n) -> void {
-        if (nodes[b].is_leaf()) {
-            kids[n++] = b;
-            return;
-        }
-        while (lanes >= 2 && plan.lanes(b, lanes) == 0) --lanes;
-        if (lanes == 1) {
-            kids[n++] = b;
-            return;
-        }
-        const int left = plan.lanes(b, lanes);
-        self(self, nodes[b].offset, left, kids, n);
-        self(self, nodes[b].offset + 1, lanes - left, kids, n);
-    };
     const auto make = [&](auto& self, uint32_t n) -> uint32_t {
         uint32_t lanes[kWidth];
         int k = 0;
-        if (nodes[n].is_leaf()) {
+        if (nodes[n].is_leaf())
             lanes[k++] = n;
-        } else {
-            const int left = plan.split(n);
-            assign(assign, nodes[n].offset, left, lanes, k);
-            assign(assign, nodes[n].offset + 1, kWidth - left, lanes, k);
-        }
-        // Lanes by surface area, largest first: the any-hit walk enters the lowest hit
-        // lane first, and a ray meets a box with a chance that grows with its area (the
-        // SAH's own argument, MacDonald and Booth 1990), so the likeliest occluder comes
-        // first (accel/DECISIONS.md, "top-level any-hit order"). The closest-hit walk
-        // orders by distance and is unaffected.
-        // (Insertion by hand: std::sort over eight lanes trips GCC 12's -Warray-bounds.)
-        for (int i = 1; i < k; ++i)
-            for (int j = i; j > 0 && nodes[lanes[j]].bounds().surface_area() > nodes[lanes[j - 1]].bounds().surface_area();
-                 --j)
-                std::swap(lanes[j], lanes[j - 1]);
+        else
+            k = plan.lanes_of(n, lanes);
+        by_area(nodes, lanes, k);
         const uint32_t me = uint32_t(out.size());
         out.emplace_back();
         for (int i = 0; i < kWidth; ++i) {

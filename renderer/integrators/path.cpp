@@ -66,16 +66,15 @@ Vec3f sum_light_samples(const LightSet& lights, int light_samples, const Interac
 /// largest channel, with refraction's 1/eta^2 undone by eta_scale), and survivors carry
 /// 1/(1 - q). Unlike a fixed probability it never cuts a bright path through a mirror or
 /// glass, and stops dim ones sooner. roulette_q is the chance to end; a path that goes
-/// on (roulette_survives) carries beta / (1 - q) from then on (roulette_reweigh), which
-/// the integrator applies only after adding the light its bounce ray found (late roulette).
+/// on (PathIntegrator::roulette) carries beta / (1 - q) from then on (roulette_reweigh),
+/// which the integrator applies only after adding the light its bounce ray found (late
+/// roulette).
 float roulette_q(const Vec3f& beta, float eta_scale, bool sqrt_rule) {
     // Cycles' rule continues with sqrt of the throughput: dim paths live longer, so fewer
     // survivors carry large weights (the "sqrt roulette" row of renderer/README.md).
     const float m = accel::max_component(beta * eta_scale);
     return std::max(0.0f, 1.0f - (sqrt_rule ? std::sqrt(m) : m));
 }
-
-bool roulette_survives(float q, float u) { return q <= 0.0f || !(u < q); }
 
 void roulette_reweigh(Vec3f& beta, float q) {
     if (q > 0.0f) beta = beta / (1.0f - q);
@@ -296,7 +295,8 @@ bool PathIntegrator::scatter(const scenes::Material& m, int bounce, Interaction&
 
 bool PathIntegrator::roulette(const Vec3f& beta, float eta_scale, uint32_t d, SampleContext& ctx, float& q) const {
     q = roulette_q(beta, eta_scale, s_.sqrt_roulette());
-    return roulette_survives(q, ctx.get1d(d + dims::kRoulette));
+    const float u = ctx.get1d(d + dims::kRoulette);  // drawn either way: streams stay in step
+    return q <= 0.0f || !(u < q);
 }
 
 bool PathIntegrator::trace_bounce(Interaction& it, const Vec3f& wi, bool goes_on, accel::Hit& hit,
