@@ -35,12 +35,31 @@ struct SampleContext {
     /// every dimension is the next number of rng, in call order.
     const PixelSample* sampler = nullptr;
 
-    float get1d(uint32_t dim) { return sampler ? sampler->get1d(dim) : rng.next_float(); }
+    /// Draws the numbers of path vertex `bounce` (its kPerBounce dimensions) at once, for
+    /// the low-discrepancy samplers: the independent hash chains then overlap in the CPU,
+    /// where drawing each as the integrator reaches it waits on one chain at a time ("a
+    /// vertex's draws at once" in renderer/README.md). The values are the same either way.
+    void draw_vertex(int bounce) {
+        const uint32_t base = dims::bounce(bounce);
+        if (!sampler || base + dims::kPerBounce > dims::kLdDimensions) return;
+        sampler->vertex_draws(base, vertex_);
+        vertex_base_ = base;
+    }
+    float get1d(uint32_t dim) {
+        if (dim - vertex_base_ < dims::kPerBounce) return vertex_[dim - vertex_base_];
+        return sampler ? sampler->get1d(dim) : rng.next_float();
+    }
     Vec2f get2d(uint32_t dim) {
+        if (dim - vertex_base_ < dims::kPerBounce) return {vertex_[dim - vertex_base_], vertex_[dim - vertex_base_ + 1]};
         if (sampler) return sampler->get2d(dim);
         const float u0 = rng.next_float();
         return {u0, rng.next_float()};
     }
+
+    /// draw_vertex's numbers and their first dimension; the initial base is above every
+    /// dimension (dims::extra_light's included), so nothing is read before a draw.
+    float vertex_[dims::kPerBounce] = {};
+    uint32_t vertex_base_ = 0xF0000000u;
 };
 
 struct IntegratorSettings {

@@ -18,6 +18,17 @@ uint32_t reverse_bits(uint32_t v) {
     return ((v >> 4) & 0x0F0F0F0Fu) | ((v & 0x0F0F0F0Fu) << 4);
 }
 
+/// The same on both halves of a 64-bit word at once, each half staying in its place
+/// (the 64-bit reversal would also swap them): a 2D draw reverses its two coordinates
+/// for the price of one.
+uint64_t reverse_halves(uint64_t v) {
+    v = __builtin_bswap64(v);
+    v = (v >> 32) | (v << 32);
+    v = ((v >> 1) & 0x5555555555555555ull) | ((v & 0x5555555555555555ull) << 1);
+    v = ((v >> 2) & 0x3333333333333333ull) | ((v & 0x3333333333333333ull) << 2);
+    return ((v >> 4) & 0x0F0F0F0F0F0F0F0Full) | ((v & 0x0F0F0F0F0F0F0F0Full) << 4);
+}
+
 /// Laine and Karras's hash as Burley 2020 (listing 2) tunes it: bit k of the result is
 /// bit k of x flipped by a function of the bits below it (additions and products by even
 /// constants carry only upward), so on reversed bits it is a nested uniform (Owen)
@@ -38,7 +49,11 @@ uint32_t owen_scramble(uint32_t v, uint32_t seed) { return reverse_bits(laine_ka
 /// flips by a function of the bits above it, so the aligned blocks of 2^m indices are
 /// permuted among themselves and stay blocks, and each block of a (0,2)-sequence stays a
 /// (0,m,2)-net: the first 2^m samples of a pixel are still stratified.
-uint32_t shuffle_index(uint32_t i, uint32_t seed) { return owen_scramble(i, seed); }
+/// Takes the index already reversed (PixelSample keeps its sample's reversal), which
+/// leaves one reversal per draw.
+uint32_t shuffle_reversed_index(uint32_t reversed_i, uint32_t seed) {
+    return reverse_bits(laine_karras(reversed_i, seed));
+}
 
 /// Sobol's first dimension, Owen-scrambled: the van der Corput value (the index's bits
 /// reversed) through owen_scramble, whose first reversal undoes that one, leaving
@@ -86,12 +101,15 @@ struct Sobol1BytesReversed {
 };
 constexpr Sobol1BytesReversed kSobol1BytesReversed{};
 
-/// Owen-scrambled sobol1(i): reverse_bits(laine_karras(reverse_bits(sobol1(i)), seed)).
-uint32_t owen_sobol1(uint32_t i, uint32_t seed) {
+/// Owen-scrambled (sobol0(i), sobol1(i)), each the reversal of laine_karras on the reversed
+/// Sobol value, the two reversals made as one (reverse_halves): x in the low half.
+uint64_t owen_sobol01(uint32_t i, uint32_t seed0, uint32_t seed1) {
     const uint32_t r = kSobol1BytesReversed.t[0][i & 0xFFu] ^ kSobol1BytesReversed.t[1][(i >> 8) & 0xFFu] ^
                        kSobol1BytesReversed.t[2][(i >> 16) & 0xFFu] ^ kSobol1BytesReversed.t[3][i >> 24];
-    return reverse_bits(laine_karras(r, seed));
+    return reverse_halves(uint64_t(laine_karras(r, seed1)) << 32 | laine_karras(i, seed0));
 }
+
+Vec2f to_unit2(uint64_t xy) { return {float(uint32_t(xy) >> 8) * 0x1p-24f, float(uint32_t(xy >> 32) >> 8) * 0x1p-24f}; }
 
 /// A third 32-bit seed from a 64-bit key: the high half of its product with an odd
 /// constant depends on every bit of the key, at the price of one multiply instead of
@@ -336,6 +354,7 @@ PixelSample::PixelSample(const Sampler& sampler, int x, int y, int width, uint32
       pixel_key_(mix64(sampler.seed_ ^ mix64(uint64_t(y) * uint64_t(width) + uint64_t(x) + 0x632BE59BD9B4E019ull))),
       morton_(0),
       sample_(sample),
+      reversed_sample_(reverse_bits(sample)),
       sample_hash_{sample_hash(sample, 0), sample_hash(sample, 1)} {
     if (sampler.kind_ == SamplerKind::ZSobol)
         morton_ = (morton2(uint32_t(x), uint32_t(y)) << sampler.log2_spp_) | uint64_t(sample);
@@ -407,7 +426,7 @@ float PixelSample::get1d(uint32_t dim) const {
         }
         case SamplerKind::Sobol: {
             const uint64_t k = key(dim);
-            const uint32_t i = shuffle_index(sample_, uint32_t(k));
+            const uint32_t i = shuffle_reversed_index(reversed_sample_, uint32_t(k));
             return to_unit(owen_sobol0(i, uint32_t(k >> 32)));
         }
         case SamplerKind::ZSobol: {
@@ -438,14 +457,13 @@ Vec2f PixelSample::get2d(uint32_t dim) const {
         }
         case SamplerKind::Sobol: {
             const uint64_t k = key(dim);
-            const uint32_t i = shuffle_index(sample_, uint32_t(k));
-            return {to_unit(owen_sobol0(i, uint32_t(k >> 32))), to_unit(owen_sobol1(i, third_seed(k)))};
+            const uint32_t i = shuffle_reversed_index(reversed_sample_, uint32_t(k));
+            return to_unit2(owen_sobol01(i, uint32_t(k >> 32), third_seed(k)));
         }
         case SamplerKind::ZSobol: {
             const uint64_t i = zsobol_index(morton_, s.base4_digits_, s.log2_spp_, dim, s.seed_);
             const uint64_t h = s.zsobol_scramble_[dim];
-            return {to_unit(owen_sobol0(uint32_t(i), uint32_t(h))),
-                    to_unit(owen_sobol1(uint32_t(i), uint32_t(h >> 32)))};
+            return to_unit2(owen_sobol01(uint32_t(i), uint32_t(h), uint32_t(h >> 32)));
         }
         case SamplerKind::Pmj02: {
             const uint64_t k = key(dim);
@@ -454,6 +472,34 @@ Vec2f PixelSample::get2d(uint32_t dim) const {
         }
     }
     return {};
+}
+
+void PixelSample::vertex_draws(uint32_t base, float* out) const {
+    static_assert(dims::kLightChoice == 0 && dims::kLightPoint == 1 && dims::kBsdfLobe == 3 &&
+                  dims::kBsdfDir == 4 && dims::kRoulette == 6 && dims::kPerBounce == 7);
+    if (s_->kind_ != SamplerKind::Sobol) {
+        out[0] = get1d(base);
+        const Vec2f a = get2d(base + 1);
+        out[1] = a.x; out[2] = a.y;
+        out[3] = get1d(base + 3);
+        const Vec2f b = get2d(base + 4);
+        out[4] = b.x; out[5] = b.y;
+        out[6] = get1d(base + 6);
+        return;
+    }
+    // get1d and get2d's sobol draws written out side by side, so the five chains interleave.
+    const uint64_t k0 = key(base), k1 = key(base + 1), k3 = key(base + 3), k4 = key(base + 4), k6 = key(base + 6);
+    const uint32_t i0 = shuffle_reversed_index(reversed_sample_, uint32_t(k0));
+    const uint32_t i1 = shuffle_reversed_index(reversed_sample_, uint32_t(k1));
+    const uint32_t i3 = shuffle_reversed_index(reversed_sample_, uint32_t(k3));
+    const uint32_t i4 = shuffle_reversed_index(reversed_sample_, uint32_t(k4));
+    const uint32_t i6 = shuffle_reversed_index(reversed_sample_, uint32_t(k6));
+    out[0] = to_unit(owen_sobol0(i0, uint32_t(k0 >> 32)));
+    const Vec2f a = to_unit2(owen_sobol01(i1, uint32_t(k1 >> 32), third_seed(k1)));
+    out[3] = to_unit(owen_sobol0(i3, uint32_t(k3 >> 32)));
+    const Vec2f b = to_unit2(owen_sobol01(i4, uint32_t(k4 >> 32), third_seed(k4)));
+    out[6] = to_unit(owen_sobol0(i6, uint32_t(k6 >> 32)));
+    out[1] = a.x; out[2] = a.y; out[4] = b.x; out[5] = b.y;
 }
 
 }  // namespace renderer
