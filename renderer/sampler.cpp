@@ -11,7 +11,7 @@ namespace {
 
 /// The bytes reversed by one instruction (bswap), then the bits within each byte: three
 /// swap steps instead of five, on every scrambled draw.
-uint32_t reverse_bits(uint32_t v) {
+[[gnu::always_inline]] inline uint32_t reverse_bits(uint32_t v) {
     v = __builtin_bswap32(v);
     v = ((v >> 1) & 0x55555555u) | ((v & 0x55555555u) << 1);
     v = ((v >> 2) & 0x33333333u) | ((v & 0x33333333u) << 2);
@@ -21,7 +21,7 @@ uint32_t reverse_bits(uint32_t v) {
 /// The same on both halves of a 64-bit word at once, each half staying in its place
 /// (the 64-bit reversal would also swap them): a 2D draw reverses its two coordinates
 /// for the price of one.
-uint64_t reverse_halves(uint64_t v) {
+[[gnu::always_inline]] inline uint64_t reverse_halves(uint64_t v) {
     v = __builtin_bswap64(v);
     v = (v >> 32) | (v << 32);
     v = ((v >> 1) & 0x5555555555555555ull) | ((v & 0x5555555555555555ull) << 1);
@@ -33,7 +33,7 @@ uint64_t reverse_halves(uint64_t v) {
 /// bit k of x flipped by a function of the bits below it (additions and products by even
 /// constants carry only upward), so on reversed bits it is a nested uniform (Owen)
 /// scramble and keeps every elementary interval of a net.
-uint32_t laine_karras(uint32_t x, uint32_t seed) {
+[[gnu::always_inline]] inline uint32_t laine_karras(uint32_t x, uint32_t seed) {
     x += seed;
     x ^= x * 0x6c50b47cu;
     x ^= x * 0xb82f1e52u;
@@ -43,7 +43,7 @@ uint32_t laine_karras(uint32_t x, uint32_t seed) {
 }
 
 /// Owen scrambling of a value in [0, 1) as 32-bit fixed point (Burley 2020, section 3).
-uint32_t owen_scramble(uint32_t v, uint32_t seed) { return reverse_bits(laine_karras(reverse_bits(v), seed)); }
+[[gnu::always_inline]] inline uint32_t owen_scramble(uint32_t v, uint32_t seed) { return reverse_bits(laine_karras(reverse_bits(v), seed)); }
 
 /// The same on a sample index (Burley 2020, section 4, "shuffling"): bit k of the index
 /// flips by a function of the bits above it, so the aligned blocks of 2^m indices are
@@ -51,14 +51,14 @@ uint32_t owen_scramble(uint32_t v, uint32_t seed) { return reverse_bits(laine_ka
 /// (0,m,2)-net: the first 2^m samples of a pixel are still stratified.
 /// Takes the index already reversed (PixelSample keeps its sample's reversal), which
 /// leaves one reversal per draw.
-uint32_t shuffle_reversed_index(uint32_t reversed_i, uint32_t seed) {
+[[gnu::always_inline]] inline uint32_t shuffle_reversed_index(uint32_t reversed_i, uint32_t seed) {
     return reverse_bits(laine_karras(reversed_i, seed));
 }
 
 /// Sobol's first dimension, Owen-scrambled: the van der Corput value (the index's bits
 /// reversed) through owen_scramble, whose first reversal undoes that one, leaving
 /// reverse_bits(laine_karras(i, seed)).
-uint32_t owen_sobol0(uint32_t i, uint32_t seed) { return reverse_bits(laine_karras(i, seed)); }
+[[gnu::always_inline]] inline uint32_t owen_sobol0(uint32_t i, uint32_t seed) { return reverse_bits(laine_karras(i, seed)); }
 
 /// Sobol's second dimension, for the primitive polynomial x + 1 (degree 1, m_1 = 1): its
 /// direction numbers follow from the recurrence m_k = 2 m_{k-1} xor m_{k-1} (Bratley and
@@ -103,21 +103,21 @@ constexpr Sobol1BytesReversed kSobol1BytesReversed{};
 
 /// Owen-scrambled (sobol0(i), sobol1(i)), each the reversal of laine_karras on the reversed
 /// Sobol value, the two reversals made as one (reverse_halves): x in the low half.
-uint64_t owen_sobol01(uint32_t i, uint32_t seed0, uint32_t seed1) {
+[[gnu::always_inline]] inline uint64_t owen_sobol01(uint32_t i, uint32_t seed0, uint32_t seed1) {
     const uint32_t r = kSobol1BytesReversed.t[0][i & 0xFFu] ^ kSobol1BytesReversed.t[1][(i >> 8) & 0xFFu] ^
                        kSobol1BytesReversed.t[2][(i >> 16) & 0xFFu] ^ kSobol1BytesReversed.t[3][i >> 24];
     return reverse_halves(uint64_t(laine_karras(r, seed1)) << 32 | laine_karras(i, seed0));
 }
 
-Vec2f to_unit2(uint64_t xy) { return {float(uint32_t(xy) >> 8) * 0x1p-24f, float(uint32_t(xy >> 32) >> 8) * 0x1p-24f}; }
+[[gnu::always_inline]] inline Vec2f to_unit2(uint64_t xy) { return {float(uint32_t(xy) >> 8) * 0x1p-24f, float(uint32_t(xy >> 32) >> 8) * 0x1p-24f}; }
 
 /// A third 32-bit seed from a 64-bit key: the high half of its product with an odd
 /// constant depends on every bit of the key, at the price of one multiply instead of
 /// another mix64.
-uint32_t third_seed(uint64_t k) { return uint32_t((k * 0xD6E8FEB86659FD93ull) >> 32); }
+[[gnu::always_inline]] inline uint32_t third_seed(uint64_t k) { return uint32_t((k * 0xD6E8FEB86659FD93ull) >> 32); }
 
 /// Fixed point to [0, 1): the top 24 bits, so the result is never 1.
-float to_unit(uint32_t v) { return float(v >> 8) * 0x1p-24f; }
+[[gnu::always_inline]] inline float to_unit(uint32_t v) { return float(v >> 8) * 0x1p-24f; }
 
 /// A bijection of [0, n) chosen by `seed`: an invertible hash on the enclosing power of
 /// two (xor, odd multiply and xorshift are each invertible modulo 2^k), cycle-walked until

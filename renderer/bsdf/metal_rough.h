@@ -7,6 +7,7 @@
 #pragma once
 
 #include "renderer/bsdf/rough_dielectric.h"
+#include "renderer/sampling.h"
 
 namespace renderer::bsdf {
 
@@ -96,7 +97,7 @@ struct MetalRough {
             s.wi = reflect(wo, dist.sample_m(wo, u1, u2));
             if (s.wi.z <= 0) return false;
         } else if (uc < p[0] + p[1]) {
-            s.wi = cosine_hemisphere_local(u1, u2);
+            s.wi = cosine_hemisphere(u1, u2);
         } else if (!RoughTransmission{dist, eta}.sample(wo, u1, u2, s.wi)) {
             return false;
         }
@@ -106,12 +107,6 @@ struct MetalRough {
         s.f = f(wo, s.wi);
         s.weight = s.f * (abs_cos(s.wi) / s.pdf);
         return true;
-    }
-
-private:
-    static Vec3f cosine_hemisphere_local(float u1, float u2) {
-        const float r = std::sqrt(u1), phi = 2.0f * kPi * u2;
-        return {r * std::cos(phi), r * std::sin(phi), std::sqrt(std::max(0.0f, 1.0f - u1))};
     }
 };
 
