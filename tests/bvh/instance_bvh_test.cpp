@@ -318,7 +318,9 @@ TEST(InstanceBvh, PlacementBoxesHoldTheirInstanceAndFollowItsShape) {
         // Random turns of an 8:1 ellipsoid: the transformed whole box is far looser. (Under
         // Quantized the bottom trees are compressed too, so the cover is the whole box,
         // and the top grid rounds the leaf boxes outward: only containment holds there.)
-        if (layout == NodeLayout::Float) EXPECT_LT(tight_area, 0.85 * whole_area);
+        if (layout == NodeLayout::Float) {
+            EXPECT_LT(tight_area, 0.85 * whole_area);
+        }
     }
 }
 
