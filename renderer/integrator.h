@@ -38,7 +38,8 @@ struct SampleContext {
     /// Draws the numbers of path vertex `bounce` (its kPerBounce dimensions) at once, for
     /// the low-discrepancy samplers: the independent hash chains then overlap in the CPU,
     /// where drawing each as the integrator reaches it waits on one chain at a time ("a
-    /// vertex's draws at once" in renderer/README.md). The values are the same either way.
+    /// vertex's draws at once" in renderer/README.md). The values are the same either
+    /// way.
     void draw_vertex(int bounce) {
         const uint32_t base = dims::bounce(bounce);
         if (!sampler || base + dims::kPerBounce > dims::kLdDimensions) return;
@@ -50,7 +51,8 @@ struct SampleContext {
         return sampler ? sampler->get1d(dim) : rng.next_float();
     }
     Vec2f get2d(uint32_t dim) {
-        if (dim - vertex_base_ < dims::kPerBounce) return {vertex_[dim - vertex_base_], vertex_[dim - vertex_base_ + 1]};
+        if (dim - vertex_base_ < dims::kPerBounce)
+            return {vertex_[dim - vertex_base_], vertex_[dim - vertex_base_ + 1]};
         if (sampler) return sampler->get2d(dim);
         const float u0 = rng.next_float();
         return {u0, rng.next_float()};

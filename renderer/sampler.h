@@ -113,12 +113,13 @@ public:
     /// kLdDimensions), as get1d and get2d would give them, into out[0 .. kPerBounce).
     void vertex_draws(uint32_t base, float* out) const;
 
-private:
+  private:
     const Sampler* s_;
     uint64_t pixel_key_;  // hash of (seed, pixel), pixel = y * width + x: key()'s per-sample part
     uint64_t morton_;    // zsobol: Morton code of (x, y), shifted above the sample bits
     uint32_t sample_;
-    uint32_t reversed_sample_;  // sample_'s bits reversed, where sobol's index shuffle starts
+    uint32_t
+        reversed_sample_;  // sample_'s bits reversed, where sobol's index shuffle starts
     uint64_t sample_hash_[2];  // the sample's part of `hashed`, for its two coordinates
     uint64_t key(uint32_t dim) const;
     float hashed(uint32_t dim, uint32_t which) const;

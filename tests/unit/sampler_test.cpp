@@ -132,7 +132,8 @@ TEST(Sampler, NumbersArePureFunctionsOfTheirCoordinates) {
 // A vertex's numbers drawn at once are the ones drawn one by one, for every vertex of
 // the low-discrepancy layout and sample indices with high bits set.
 TEST(Sampler, VertexDrawsAreTheSingleDraws) {
-    for (SamplerKind kind : {SamplerKind::Stratified, SamplerKind::Sobol, SamplerKind::ZSobol, SamplerKind::Pmj02}) {
+    for (SamplerKind kind : {SamplerKind::Stratified, SamplerKind::Sobol,
+                             SamplerKind::ZSobol, SamplerKind::Pmj02}) {
         const Sampler s(kind, 7, 16, 40, 30);
         for (uint32_t sample : {0u, 5u, 15u, 1000u, 0x8000000Fu}) {
             const PixelSample ps(s, 39, 17, 40, sample);
@@ -140,8 +141,10 @@ TEST(Sampler, VertexDrawsAreTheSingleDraws) {
                 const uint32_t d = dims::bounce(b);
                 float v[dims::kPerBounce];
                 ps.vertex_draws(d, v);
-                const Vec2f light = ps.get2d(d + dims::kLightPoint), dir = ps.get2d(d + dims::kBsdfDir);
-                ASSERT_EQ(v[dims::kLightChoice], ps.get1d(d + dims::kLightChoice)) << sampler_name(kind);
+                const Vec2f light = ps.get2d(d + dims::kLightPoint),
+                            dir = ps.get2d(d + dims::kBsdfDir);
+                ASSERT_EQ(v[dims::kLightChoice], ps.get1d(d + dims::kLightChoice))
+                    << sampler_name(kind);
                 ASSERT_EQ(v[dims::kLightPoint], light.x);
                 ASSERT_EQ(v[dims::kLightPoint + 1], light.y);
                 ASSERT_EQ(v[dims::kBsdfLobe], ps.get1d(d + dims::kBsdfLobe));
