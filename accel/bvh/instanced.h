@@ -47,7 +47,7 @@ public:
                 Hit& hit) const;
 
     WideBvh top_;  ///< leaf lanes: child kLeaf | placement, count = its bottom tree
-    std::vector<Placement> placements_;
+    TraversalVector<Placement> placements_;
     std::vector<const WideBvh*> bottom_wide_;  ///< per bottom tree: what traversal reads
     std::vector<uint32_t> geom_base_;          ///< per bottom tree: its geometry 0's id
     std::vector<std::unique_ptr<BvhBase>> bottoms_;
