@@ -47,6 +47,7 @@ public:
                 Hit& hit) const;
 
     WideBvh top_;  ///< leaf lanes: child kLeaf | placement, count = its bottom tree
+    /// In leaf order; huge pages, as the nodes (accel/DECISIONS.md, "placements in huge pages").
     TraversalVector<Placement> placements_;
     std::vector<const WideBvh*> bottom_wide_;  ///< per bottom tree: what traversal reads
     std::vector<uint32_t> geom_base_;          ///< per bottom tree: its geometry 0's id
