@@ -146,6 +146,14 @@ void by_area(const std::vector<Node>& nodes, uint32_t* lanes, int k) {
             std::swap(lanes[j], lanes[j - 1]);
 }
 
+/// Unused lanes hold an inverted box (+inf/-inf) that no ray hits, without NaN:
+/// inf - finite stays inf.
+void set_empty(WideNode& n, int i) {
+    for (int a = 0; a < 3; ++a) n.b[a][i] = kInfinity, n.b[a + 3][i] = -kInfinity;
+    n.child[i] = WideNode::kEmpty;
+    n.count[i] = 0;
+}
+
 class Collapser {
 public:
     Collapser(const BinaryTree& t, const Plan& plan, std::span<const GeometryView> g, TriangleTest test,
@@ -370,14 +378,6 @@ private:
         return self;
     }
 
-    /// Unused lanes hold an inverted box (+inf/-inf) that no ray hits, without NaN:
-    /// inf - finite stays inf.
-    static void set_empty(WideNode& n, int i) {
-        for (int a = 0; a < 3; ++a) n.b[a][i] = kInfinity, n.b[a + 3][i] = -kInfinity;
-        n.child[i] = WideNode::kEmpty;
-        n.count[i] = 0;
-    }
-
     /// Links lane `lane` of `w` to the leaf's blocks from `first` on and packs them.
     void leaf(WideNode& w, int lane, const Kid& c, uint32_t first) {
         const bool spheres = g_[order_[c.offset].geom].type != GeometryType::Triangles;  // one type per leaf
@@ -492,10 +492,7 @@ void collapse_top(const BinaryTree& tree, TraversalVector<WideNode>& out) {
         out.emplace_back();
         for (int i = 0; i < kWidth; ++i) {
             if (i >= k) {
-                WideNode& w = out[me];
-                for (int a = 0; a < 3; ++a) w.b[a][i] = kInfinity, w.b[a + 3][i] = -kInfinity;
-                w.child[i] = WideNode::kEmpty;
-                w.count[i] = 0;
+                set_empty(out[me], i);
                 continue;
             }
             const Node& b = nodes[lanes[i]];
