@@ -274,7 +274,8 @@ void finish_options(Options& o) {
 }
 
 /// The study's baseline, which is also how the reference is rendered: light sampling,
-/// one sample per light, depth 100 (Russian roulette ends paths long before), rr 0.65.
+/// one sample per light, depth 100 (Russian roulette ends paths long before), rr 0.65,
+/// one path per camera sample (no bounce splitting), as the course renders.
 /// Depth 100 makes the reference the converged global illumination, so the max-depth
 /// study can show the bias of truncating paths.
 IntegratorSettings baseline() {
@@ -283,6 +284,7 @@ IntegratorSettings baseline() {
     base.max_depth = 100;
     base.light_samples = 1;
     base.rr_continue = 0.65f;
+    base.split = 1;
     return base;
 }
 

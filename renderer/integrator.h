@@ -3,6 +3,7 @@
 #pragma once
 
 #include <memory>
+#include <optional>
 #include <string>
 
 #include "accel/accelerator.h"
@@ -58,6 +59,22 @@ struct SampleContext {
         return {u0, rng.next_float()};
     }
 
+    /// Bounce splitting (IntegratorSettings::split): branch j of a camera sample draws
+    /// its numbers from the camera hit's bounce on as sample index * split + j of the
+    /// branch sampler, the render's sampler at split times its sample count, so the
+    /// pixel's spp * split branches form one stratified set ("bounce splitting" in
+    /// renderer/README.md). Null for the independent sampler, whose stream just goes on.
+    const Sampler* branch_sampler = nullptr;
+    int x = 0, y = 0, width = 0;
+    uint32_t index = 0;
+    void begin_branch(uint32_t j, uint32_t split) {
+        vertex_base_ = 0xF0000000u;
+        if (!branch_sampler) return;
+        branch_.emplace(*branch_sampler, x, y, width, index * split + j);
+        sampler = &*branch_;
+    }
+    std::optional<PixelSample> branch_{};
+
     /// draw_vertex's numbers and their first dimension; the initial base is above every
     /// dimension (dims::extra_light's included), so nothing is read before a draw.
     float vertex_[dims::kPerBounce] = {};
@@ -83,6 +100,11 @@ struct IntegratorSettings {
     bool throughput_roulette() const { return rr_continue < 0.0f; }
     bool sqrt_roulette() const { return rr_continue == kSqrtThroughputRoulette; }
     std::string only;           ///< --only=direct|indirect ("" = both)
+    /// --split: bounce rays per camera hit. The camera hit's direct light is estimated
+    /// once and its bounce sampled `split` times, each branch a path of its own (Arvo and
+    /// Kirk 1990, splitting): indirect light, most of a diffuse image's noise, gets split
+    /// times the samples without as many camera rays.
+    int split = 4;
     /// --offset: how secondary rays leave surfaces (renderer/spawn.h). ErrorBound offsets
     /// by the hit point's floating-point error bound (pbrt-v4 6.8); Epsilon is the plain
     /// scale-relative epsilon, kept for comparison.
@@ -107,6 +129,9 @@ public:
     virtual Vec3f li(const accel::Ray& ray, SampleContext& ctx) const = 0;
     /// True when li's values are display colours (normal shading), not radiance.
     virtual bool display_referred() const { return false; }
+    /// Branches per camera sample (IntegratorSettings::split): the render draws their
+    /// numbers from a sampler of this many times its sample count.
+    virtual int branches() const { return 1; }
 };
 
 /// Throws std::invalid_argument naming the integrator when it is unknown or unavailable.

@@ -10,6 +10,7 @@
 #include <chrono>
 #include <cstdio>
 #include <mutex>
+#include <optional>
 #include <stdexcept>
 
 #include <unistd.h>
@@ -134,6 +135,9 @@ RenderResult render(const Camera& camera, const Integrator& integrator,
     // Built before the clock starts: pmj02 draws its tables here (0.07 s).
     const Sampler sampler(s.sampler, s.seed, s.spp, s.width, s.height);
     const bool independent = s.sampler == SamplerKind::Independent;
+    const int branches = integrator.branches();
+    std::optional<Sampler> branch_sampler;
+    if (branches > 1 && !independent) branch_sampler.emplace(s.sampler, s.seed, s.spp * branches, s.width, s.height);
 
     stage("rendering");
     tbb::enumerable_thread_specific<accel::TraceStats> thread_stats;
@@ -153,6 +157,13 @@ RenderResult render(const Camera& camera, const Integrator& integrator,
             Rng rng(s.seed, pixel, q.taken);
             const PixelSample ld(sampler, x, y, s.width, q.taken);
             SampleContext ctx{accel, stats, rng, {}, independent ? nullptr : &ld};
+            if (branch_sampler) {
+                ctx.branch_sampler = &*branch_sampler;
+                ctx.x = x;
+                ctx.y = y;
+                ctx.width = s.width;
+                ctx.index = q.taken;
+            }
             // One sample sits at the pixel centre (as the course does); more are spread
             // inside the pixel.
             Vec2f j{0.5f, 0.5f};

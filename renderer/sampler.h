@@ -47,7 +47,11 @@ SamplerKind parse_sampler(const std::string& name);
 const char* sampler_name(SamplerKind kind);
 
 /// The dimension layout of a camera sample: the one place it is written down. 2D entries
-/// take two consecutive dimensions, drawn together as one 2D point.
+/// take two consecutive dimensions, drawn together as one 2D point. Under bounce
+/// splitting (IntegratorSettings::split = K), the pixel, lens and camera-hit light
+/// dimensions are sample i's, and branch j reads the camera hit's lobe, direction and
+/// roulette and every later vertex as sample i * K + j of the same layout, from a sampler
+/// of K times the sample count (SampleContext::begin_branch).
 namespace dims {
 inline constexpr uint32_t kPixel = 0;  ///< 2D: position inside the pixel
 inline constexpr uint32_t kLens = 2;   ///< 2D: point on the thin lens

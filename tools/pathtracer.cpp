@@ -173,6 +173,10 @@ void add_scene_options(CLI::App& app, Options& o) {
                    "continuation probability with 0 < P <= 1 (the CS184 course's roulette, which "
                    "uses 0.65; 1 = no roulette)")
         ->type_name("throughput|sqrt|P");
+    app.add_option("--split", o.is.split,
+                   "Bounce rays per camera hit on a diffuse surface: its direct light is sampled "
+                   "once and its bounce K times, each branch a path of its own (1 = no splitting)")
+        ->check(CLI::Range(1, 64));
     app.add_option("--sampler", o.sampler,
                    "Where each sample's random numbers come from: independent (the per-sample PCG32 "
                    "streams of earlier versions) | stratified (jittered strata per dimension) | "

@@ -139,6 +139,27 @@ Vec3f PathIntegrator::li(const accel::Ray& camera_ray, SampleContext& ctx) const
         return reflectance_of(scene_, m, it);
     }
     if (counts(0)) L += lights_.emitted(it, wo);
+    if (s_.split > 1 && s_.max_depth >= 2) return L + split_at_camera_hit(it, wo, ctx);
+    return L + walk(it, wo, VertexParts{}, ctx);
+}
+
+Vec3f PathIntegrator::split_at_camera_hit(const Interaction& it, const Vec3f& wo, SampleContext& ctx) const {
+    const float k = float(s_.split);
+    // The camera hit's direct light once, from the camera sample's numbers, each light
+    // sample weighed against the k bounce samples; then k branches without it.
+    Vec3f L(0.0f);
+    if (counts(1)) L = walk(it, wo, VertexParts{true, false, k}, ctx);
+    Vec3f branches(0.0f);
+    for (int j = 0; j < s_.split; ++j) {
+        ctx.begin_branch(uint32_t(j), uint32_t(s_.split));
+        branches += walk(it, wo, VertexParts{false, true, k}, ctx);
+    }
+    return L + branches / k;
+}
+
+Vec3f PathIntegrator::walk(Interaction it, Vec3f wo, VertexParts first, SampleContext& ctx) const {
+    Vec3f L(0.0f);
+    accel::Hit hit;
     Vec3f beta(1.0f);
     float eta_scale = 1.0f;  // product of eta^2 over the refractions so far
     for (int bounce = 1; bounce <= s_.max_depth; ++bounce) {
@@ -156,7 +177,8 @@ Vec3f PathIntegrator::li(const accel::Ray& camera_ray, SampleContext& ctx) const
                 // At the camera hit the albedo AOV is the glTF material's base colour
                 // (aov_albedo), looked up already: one texture lookup less per sample.
                 const bool aov_is_base = bounce == 1 && m.bsdf == scenes::BsdfKind::MetallicRoughness;
-                if (!scatter(m, bounce, it, wo, beta, eta_scale, L, ctx, aov_is_base ? &ctx.aov.albedo : nullptr))
+                if (!scatter(m, bounce, it, wo, beta, eta_scale, L, ctx, aov_is_base ? &ctx.aov.albedo : nullptr,
+                             bounce == 1 ? first : VertexParts{}))
                     break;
                 continue;
             }
@@ -172,10 +194,11 @@ Vec3f PathIntegrator::li(const accel::Ray& camera_ray, SampleContext& ctx) const
         // where both strategies run (diffuse_mis_); at the last vertex light sampling
         // alone carries it.
         const bool mis = diffuse_mis_ && bounce < s_.max_depth;
-        if (counts(bounce))
+        const VertexParts part = bounce == 1 ? first : VertexParts{};
+        if (counts(bounce) && part.direct)
             L += beta * (s_.hemisphere ? direct_hemisphere(it, bounce, albedo, ctx)
-                                       : direct_lights(it, bounce, albedo, ctx, mis));
-        if (bounce == s_.max_depth) break;
+                                       : direct_lights(it, bounce, albedo, ctx, mis, part.bsdf_count));
+        if (bounce == s_.max_depth || !part.bounce) break;
         // The course's fixed-probability roulette from the second bounce on: unbiased,
         // since survivors are reweighted by 1/p.
         const uint32_t d = dims::bounce(bounce);
@@ -208,7 +231,7 @@ Vec3f PathIntegrator::li(const accel::Ray& camera_ray, SampleContext& ctx) const
         // all of it at this vertex (under --lights=course a bounce is black to emission,
         // as in the course).
         if (emission_counts && (needed || !found)) {
-            const float bsdf_pdf = local.z * accel::kInvPi;
+            const float bsdf_pdf = part.bsdf_count * local.z * accel::kInvPi;
             L += beta * found_light(found ? &it : nullptr, hit, p_here, n_here, wi,
                                     [&](float light_pdf) { return mis_weight(bsdf_pdf, light_pdf); });
         }
@@ -220,7 +243,8 @@ Vec3f PathIntegrator::li(const accel::Ray& camera_ray, SampleContext& ctx) const
 }
 
 bool PathIntegrator::scatter(const scenes::Material& m, int bounce, Interaction& it, Vec3f& wo, Vec3f& beta,
-                             float& eta_scale, Vec3f& L, SampleContext& ctx, const Vec3f* base_colour) const {
+                             float& eta_scale, Vec3f& L, SampleContext& ctx, const Vec3f* base_colour,
+                             VertexParts part) const {
     // The local frame faces wo; `front` remembers which side of the surface that is, for
     // a dielectric's relative index.
     const bool front = accel::dot(it.ng, wo) > 0;
@@ -238,8 +262,9 @@ bool PathIntegrator::scatter(const scenes::Material& m, int bounce, Interaction&
     // lose the panel's light: there --strategy=bsdf falls back to MIS.
     const bool course = lights_.model() == LightModel::Course;
     const Strategy strategy = course && s_.strategy == Strategy::Bsdf ? Strategy::Mis : s_.strategy;
-    if (!delta && counts(bounce) && strategy != Strategy::Bsdf)
-        L += beta * direct_bsdf(it, bounce, wo_l, t, bt, b, ctx);
+    if (!delta && counts(bounce) && strategy != Strategy::Bsdf && part.direct)
+        L += beta * direct_bsdf(it, bounce, wo_l, t, bt, b, ctx, part.bsdf_count);
+    if (!part.bounce) return false;
     // At the last vertex the BSDF sample still runs when its emission counts: it is the
     // other half of the MIS estimate of direct light (and all of it through delta lobes).
     const bool last = bounce == s_.max_depth;
@@ -257,7 +282,7 @@ bool PathIntegrator::scatter(const scenes::Material& m, int bounce, Interaction&
     const auto bsdf_weight = [&](float light_pdf) {
         if (delta || strategy == Strategy::Bsdf) return 1.0f;
         if (strategy == Strategy::Light) return light_pdf > 0 ? 0.0f : 1.0f;
-        return mis_weight(bs.pdf, light_pdf);
+        return mis_weight(part.bsdf_count * bs.pdf, light_pdf);
     };
     const Vec3f wi = t * bs.wi.x + bt * bs.wi.y + it.ns * bs.wi.z;
     // A direction on the other side of the geometric surface than its lobe says (shading
@@ -353,7 +378,8 @@ bool PathIntegrator::occluded(const Interaction& it, const LightSample& ls, Samp
 }
 
 Vec3f PathIntegrator::direct_bsdf(const Interaction& it, int bounce, const Vec3f& wo_l, const Vec3f& t,
-                                  const Vec3f& bt, const bsdf::Bsdf& b, SampleContext& ctx) const {
+                                  const Vec3f& bt, const bsdf::Bsdf& b, SampleContext& ctx,
+                                  float bsdf_count) const {
     return sum_light_samples(lights_, s_.light_samples, it, bounce, ctx, [&](size_t i, int n, const LightSample& ls) {
         const Vec3f wi_l(accel::dot(ls.wi, t), accel::dot(ls.wi, bt), accel::dot(ls.wi, it.ns));
         if ((accel::dot(it.ng, ls.wi) > 0) != (wi_l.z > 0)) return Vec3f(0.0f);
@@ -363,20 +389,20 @@ Vec3f PathIntegrator::direct_bsdf(const Interaction& it, int bounce, const Vec3f
         // n light samples count n times in the light strategy's density.
         const float w = ls.delta || !lights_.hittable(i) || s_.strategy == IntegratorSettings::Strategy::Light
                             ? 1.0f
-                            : mis_weight(float(n) * ls.pdf, b.pdf(wo_l, wi_l));
+                            : mis_weight(float(n) * ls.pdf, bsdf_count * b.pdf(wo_l, wi_l));
         if (occluded(it, ls, ctx)) return Vec3f(0.0f);
         return ls.radiance * f * (std::abs(wi_l.z) * w / ls.pdf);
     });
 }
 
 Vec3f PathIntegrator::direct_lights(const Interaction& it, int bounce, const Vec3f& albedo, SampleContext& ctx,
-                                    bool mis) const {
+                                    bool mis, float bsdf_count) const {
     const Vec3f f = albedo * accel::kInvPi;  // Lambert: R / pi
     return sum_light_samples(lights_, s_.light_samples, it, bounce, ctx, [&](size_t i, int n, const LightSample& ls) {
         const float cos_s = accel::dot(it.ns, ls.wi);
         if (!(cos_s > 0) || accel::dot(it.ng, ls.wi) <= 0) return Vec3f(0.0f);
         // The bounce's cosine sampling finds this direction with density cos / pi.
-        const float w = mis && !ls.delta && lights_.hittable(i) ? mis_weight(float(n) * ls.pdf, cos_s * accel::kInvPi)
+        const float w = mis && !ls.delta && lights_.hittable(i) ? mis_weight(float(n) * ls.pdf, bsdf_count * cos_s * accel::kInvPi)
                                                                 : 1.0f;
         if (!(w > 0) || occluded(it, ls, ctx)) return Vec3f(0.0f);
         return ls.radiance * f * (cos_s * w / ls.pdf);

@@ -225,12 +225,11 @@ TEST(CourseCamera, ThinLensKeepsTheFocalPlaneSharp) {
     EXPECT_GT(spread, 0.1f) << "origins cover the lens";
 }
 
-TEST(Mis, GlossyFloorWithLightsOfSeveralSizes) {
-    // Veach's test scene in miniature (Veach 1997, fig. 9.2): a glossy floor lit by a
-    // tiny, a medium and a large emitter of similar power, direct light only. Light
-    // sampling wins on the tiny light, BSDF sampling on the large one; MIS must beat both
-    // over the image (summed variance at the same sample count) and all three must agree
-    // (each region's means within 3 standard errors).
+namespace {
+
+/// Veach's test scene in miniature (Veach 1997, fig. 9.2): a glossy floor lit by a tiny, a
+/// medium and a large emitter of similar power. Built but for its integrator.
+World glossy_floor_world() {
     World w;
     w.scene.up = Vec3f(0, 0, 1);
     scenes::Material floor;
@@ -251,11 +250,28 @@ TEST(Mis, GlossyFloorWithLightsOfSeveralSizes) {
     w.geometry = std::make_unique<SceneGeometry>(w.scene);
     w.accel = build_accelerator("custom", *w.geometry, {}, false);
     w.lights = std::make_unique<LightSet>(w.scene, LightModel::Mesh, w.notes);
-    const Vec3f cam(0, -3, 1.5f);
-    // The floor points that mirror each light toward the camera, and points beside them.
+    return w;
+}
+
+const Vec3f kGlossyFloorCamera(0, -3, 1.5f);
+
+/// The floor points that mirror each light toward the camera, and points beside them.
+std::vector<Vec3f> glossy_floor_targets() {
     std::vector<Vec3f> targets;
     for (const Vec3f& p : {Vec3f(-0.6f, 0, 0), Vec3f(0, 0, 0), Vec3f(0.75f, -0.5f, 0)})
         for (const Vec3f& d : {Vec3f(0.0f), Vec3f(0.15f, 0, 0), Vec3f(0, 0.3f, 0)}) targets.push_back(p + d);
+    return targets;
+}
+
+}  // namespace
+
+TEST(Mis, GlossyFloorWithLightsOfSeveralSizes) {
+    // Light sampling wins on the tiny light, BSDF sampling on the large one; MIS must beat
+    // both over the image (summed variance at the same sample count) and all three must
+    // agree (each region's means within 3 standard errors). Direct light only.
+    World w = glossy_floor_world();
+    const Vec3f cam = kGlossyFloorCamera;
+    const std::vector<Vec3f> targets = glossy_floor_targets();
     using S = IntegratorSettings::Strategy;
     const int n = 3000;
     double var_sum[3] = {0, 0, 0};
@@ -335,6 +351,36 @@ TEST(Mis, DiffuseCeilingJustAboveATwoSidedPanel) {
     EXPECT_LT(e[0][0].se, 0.7 * e[1][0].se) << "MIS against light sampling alone above the panel";
     std::printf("above the panel: mis %.4f +- %.4f, light %.4f +- %.4f\n", e[0][0].mean, e[0][0].se, e[1][0].mean,
                 e[1][0].se);
+}
+
+TEST(Mis, SplitBounceWeighsItsLightSampleAgainstEveryBranch) {
+    // Split k ways (--split), the camera hit weighs its one light sample against k bounce
+    // samples, and each branch the emitter its bounce ray finds against that light sample,
+    // with the sample counts in the power heuristic (Veach 1997, 9.2.4): the glossy floor
+    // (BSDF vertices) and the slit's ceiling and floor (diffuse vertices) keep the
+    // unsplit estimate. Counting one bounce sample instead of k moves the estimate beyond
+    // these bounds.
+    World glossy = glossy_floor_world();
+    World slit = slit_world();
+    const accel::Ray slit_rays[] = {ray(Vec3f(0.1f, 0.05f, 1.495f), Vec3f(0, 0, 1)),
+                                    ray(Vec3f(0.5f, -1.0f, 1.0f), Vec3f(0.2f, -0.1f, -1.0f))};
+    std::vector<Estimate> est[2];
+    for (int k = 0; k < 2; ++k) {
+        IntegratorSettings is;
+        is.max_depth = 2;
+        is.split = k ? 4 : 1;
+        glossy.integrator = std::make_unique<PathIntegrator>(glossy.scene, *glossy.geometry, *glossy.lights, is);
+        for (const Vec3f& t : glossy_floor_targets())
+            est[k].push_back(li(glossy, ray(kGlossyFloorCamera, t - kGlossyFloorCamera), 3000));
+        is.max_depth = 4;
+        slit.build(is);
+        for (const accel::Ray& r : slit_rays) est[k].push_back(li(slit, r, 20000));
+    }
+    for (size_t r = 0; r < est[0].size(); ++r) {
+        const Estimate& a = est[0][r];
+        const Estimate& b = est[1][r];
+        EXPECT_NEAR(a.mean, b.mean, 3 * std::sqrt(a.se * a.se + b.se * b.se) + 1e-6) << "ray " << r;
+    }
 }
 
 TEST(Mis, EmitterGuardSaysYesToEveryRayThatFindsThePanel) {

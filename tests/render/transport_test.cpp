@@ -84,6 +84,7 @@ TEST(ThroughputRoulette, UnbiasedAndKeepsBrightPaths) {
             IntegratorSettings is;
             is.rr_continue = k ? IntegratorSettings::kSqrtThroughputRoulette : IntegratorSettings::kThroughputRoulette;
             is.max_depth = 100;
+            is.split = 1;  // one path per camera sample: its rays are the roulette's
             World s = furnace(a, 1.0f, is);
             const double expected = (1.0 - std::pow(a, 101)) / (1.0 - a);
             Estimate e = estimate(*s.integrator, *s.accel, ray_to({0.1f, 0.2f, 0.0f}, {1, 0.3f, 0.2f}), 20000, 5);
@@ -102,6 +103,7 @@ TEST(ThroughputRoulette, UnbiasedAndKeepsBrightPaths) {
         IntegratorSettings is;
         is.max_depth = 8;
         is.rr_continue = rr;
+        is.split = 1;
         World s = furnace(1.0f, 1.0f, is);
         accel::TraceStats st;
         const int n = 200;
@@ -114,6 +116,34 @@ TEST(ThroughputRoulette, UnbiasedAndKeepsBrightPaths) {
             EXPECT_EQ(st.rays, uint64_t(n) * 8u) << "camera ray + 7 bounces, none cut";
         else
             EXPECT_LT(st.rays, uint64_t(n) * 8u * 3u / 4u) << "the fixed roulette cuts paths";
+    }
+}
+
+// Bounce splitting (--split): the camera hit's direct light once, its bounce k times, the
+// branches averaged. The furnace's closed form holds for any split, with light or
+// hemisphere sampling and either roulette, and where the roulette is the noise (the
+// furnace's only randomness with light sampling), k branches cut its variance k-fold.
+TEST(WhiteFurnace, SplitBouncesKeepTheFurnace) {
+    const float a = 0.5f, Le = 1.0f;
+    const int depth = 20;
+    const double expected = Le * (1.0 - std::pow(a, depth + 1)) / (1.0 - a);
+    for (bool hemisphere : {false, true}) {
+        for (float rr : {IntegratorSettings::kThroughputRoulette, 1.0f}) {
+            double se[2] = {0, 0};
+            for (int k : {1, 4}) {
+                IntegratorSettings is;
+                is.max_depth = depth;
+                is.rr_continue = rr;
+                is.hemisphere = hemisphere;
+                is.split = k;
+                World s = furnace(a, Le, is);
+                Estimate e = estimate(*s.integrator, *s.accel, ray_to({0.1f, 0.2f, 0.0f}, {1, 0.3f, 0.2f}), 10000, 3);
+                EXPECT_NEAR(e.mean, expected, 3.0 * e.se + 1e-6)
+                    << "hemisphere=" << hemisphere << " rr=" << rr << " split=" << k << " se=" << e.se;
+                se[k == 4] = e.se;
+            }
+            if (!hemisphere && rr < 0) EXPECT_LT(se[1], 0.6 * se[0]) << "four branches, a quarter of the variance";
+        }
     }
 }
 
