@@ -41,19 +41,25 @@ struct SampleContext {
     /// where drawing each as the integrator reaches it waits on one chain at a time ("a
     /// vertex's draws at once" in renderer/README.md). The values are the same either
     /// way.
-    void draw_vertex(int bounce) {
+    /// `parts`: only the light or only the bounce numbers, where the vertex uses no other
+    /// (a split camera hit: its light sample once, its bounces in the branches); a number
+    /// not drawn is computed when read, so the values never depend on it.
+    void draw_vertex(int bounce, VertexDraws parts = VertexDraws::All) {
         const uint32_t base = dims::bounce(bounce);
         if (!sampler || base + dims::kPerBounce > dims::kLdDimensions) return;
-        sampler->vertex_draws(base, vertex_);
+        sampler->vertex_draws(base, vertex_, parts);
         vertex_base_ = base;
+        vertex_lo_ = base + (parts == VertexDraws::Bounce ? dims::kBsdfLobe : 0);
+        vertex_n_ = parts == VertexDraws::All ? dims::kPerBounce
+                    : parts == VertexDraws::Light ? dims::kBsdfLobe
+                                                  : dims::kPerBounce - dims::kBsdfLobe;
     }
     float get1d(uint32_t dim) {
-        if (dim - vertex_base_ < dims::kPerBounce) return vertex_[dim - vertex_base_];
+        if (dim - vertex_lo_ < vertex_n_) return vertex_[dim - vertex_base_];
         return sampler ? sampler->get1d(dim) : rng.next_float();
     }
     Vec2f get2d(uint32_t dim) {
-        if (dim - vertex_base_ < dims::kPerBounce)
-            return {vertex_[dim - vertex_base_], vertex_[dim - vertex_base_ + 1]};
+        if (dim - vertex_lo_ < vertex_n_) return {vertex_[dim - vertex_base_], vertex_[dim - vertex_base_ + 1]};
         if (sampler) return sampler->get2d(dim);
         const float u0 = rng.next_float();
         return {u0, rng.next_float()};
@@ -68,17 +74,17 @@ struct SampleContext {
     int x = 0, y = 0, width = 0;
     uint32_t index = 0;
     void begin_branch(uint32_t j, uint32_t split) {
-        vertex_base_ = 0xF0000000u;
+        vertex_n_ = 0;
         if (!branch_sampler) return;
         branch_.emplace(*branch_sampler, x, y, width, index * split + j);
         sampler = &*branch_;
     }
     std::optional<PixelSample> branch_{};
 
-    /// draw_vertex's numbers and their first dimension; the initial base is above every
-    /// dimension (dims::extra_light's included), so nothing is read before a draw.
+    /// draw_vertex's numbers, their first dimension, and the range [vertex_lo_, vertex_lo_
+    /// + vertex_n_) of dimensions it drew (none before the first draw).
     float vertex_[dims::kPerBounce] = {};
-    uint32_t vertex_base_ = 0xF0000000u;
+    uint32_t vertex_base_ = 0, vertex_lo_ = 0, vertex_n_ = 0;
 };
 
 struct IntegratorSettings {

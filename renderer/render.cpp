@@ -137,7 +137,7 @@ RenderResult render(const Camera& camera, const Integrator& integrator,
     const bool independent = s.sampler == SamplerKind::Independent;
     const int branches = integrator.branches();
     std::optional<Sampler> branch_sampler;
-    if (branches > 1 && !independent) branch_sampler.emplace(s.sampler, s.seed, s.spp * branches, s.width, s.height);
+    if (branches > 1 && !independent) branch_sampler.emplace(sampler.with_spp(s.spp * branches, s.width, s.height));
 
     stage("rendering");
     tbb::enumerable_thread_specific<accel::TraceStats> thread_stats;

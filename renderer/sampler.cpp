@@ -329,38 +329,41 @@ std::vector<uint32_t> generate_pmj02(uint32_t n, uint64_t seed) {
     }
 }
 
-Sampler::Sampler(SamplerKind kind, uint64_t seed, int spp, int width, int height)
-    : kind_(kind), seed_(seed), spp_(uint32_t(std::max(1, spp))) {
-    switch (kind_) {
-        case SamplerKind::Stratified: {
-            // The most square grid of spp strata (pbrt-v4 takes x and y counts; we factor).
-            int sx = int(std::sqrt(double(spp_)));
-            while (sx > 1 && spp_ % uint32_t(sx) != 0) --sx;
-            strata_x_ = std::max(1, sx);
-            strata_y_ = int(spp_) / strata_x_;
-            break;
+Sampler::Sampler(SamplerKind kind, uint64_t seed, int spp, int width, int height) : kind_(kind), seed_(seed) {
+    lay_out(spp, width, height);
+    if (kind_ == SamplerKind::Pmj02) {
+        pmj_.reserve(size_t(2) * kPmjSamples * kPmjTables);
+        for (uint32_t t = 0; t < kPmjTables; ++t) {
+            const std::vector<uint32_t> table = generate_pmj02(kPmjSamples, 0x7AB1E000ull + t);
+            pmj_.insert(pmj_.end(), table.begin(), table.end());
         }
-        case SamplerKind::ZSobol: {
-            log2_spp_ = ceil_log2(spp_);
-            const int res = ceil_log2(uint32_t(std::max({width, height, 1})));
-            base4_digits_ = res + (log2_spp_ + 1) / 2;
-            break;
-        }
-        case SamplerKind::Pmj02: {
-            pmj_.reserve(size_t(2) * kPmjSamples * kPmjTables);
-            for (uint32_t t = 0; t < kPmjTables; ++t) {
-                const std::vector<uint32_t> table = generate_pmj02(kPmjSamples, 0x7AB1E000ull + t);
-                pmj_.insert(pmj_.end(), table.begin(), table.end());
-            }
-            break;
-        }
-        default: break;
     }
     dim_hash_.resize(dims::kLdDimensions);
     for (uint32_t d = 0; d < dims::kLdDimensions; ++d) dim_hash_[d] = hash3_inner(d);
     if (kind_ == SamplerKind::ZSobol) {
         zsobol_scramble_.resize(dims::kLdDimensions);
         for (uint32_t d = 0; d < dims::kLdDimensions; ++d) zsobol_scramble_[d] = hash3(seed_, kZSobolSalt, d);
+    }
+}
+
+Sampler Sampler::with_spp(int spp, int width, int height) const {
+    Sampler out = *this;
+    out.lay_out(spp, width, height);
+    return out;
+}
+
+void Sampler::lay_out(int spp, int width, int height) {
+    spp_ = uint32_t(std::max(1, spp));
+    if (kind_ == SamplerKind::Stratified) {
+        // The most square grid of spp strata (pbrt-v4 takes x and y counts; we factor).
+        int sx = int(std::sqrt(double(spp_)));
+        while (sx > 1 && spp_ % uint32_t(sx) != 0) --sx;
+        strata_x_ = std::max(1, sx);
+        strata_y_ = int(spp_) / strata_x_;
+    } else if (kind_ == SamplerKind::ZSobol) {
+        log2_spp_ = ceil_log2(spp_);
+        const int res = ceil_log2(uint32_t(std::max({width, height, 1})));
+        base4_digits_ = res + (log2_spp_ + 1) / 2;
     }
 }
 
@@ -490,42 +493,65 @@ Vec2f PixelSample::get2d(uint32_t dim) const {
     return {};
 }
 
+void PixelSample::vertex_draws(uint32_t base, float* out, VertexDraws parts) const {
+    switch (parts) {
+        case VertexDraws::All: return vertex_draws<true, true>(base, out);
+        case VertexDraws::Light: return vertex_draws<true, false>(base, out);
+        case VertexDraws::Bounce: return vertex_draws<false, true>(base, out);
+    }
+}
+
+template <bool kLight, bool kBounce>
 void PixelSample::vertex_draws(uint32_t base, float* out) const {
     static_assert(dims::kLightChoice == 0 && dims::kLightPoint == 1 &&
                   dims::kBsdfLobe == 3 && dims::kBsdfDir == 4 && dims::kRoulette == 6 &&
                   dims::kPerBounce == 7);
     if (s_->kind_ != SamplerKind::Sobol) {
-        out[0] = get1d(base);
-        const Vec2f a = get2d(base + 1);
-        out[1] = a.x;
-        out[2] = a.y;
-        out[3] = get1d(base + 3);
-        const Vec2f b = get2d(base + 4);
-        out[4] = b.x;
-        out[5] = b.y;
-        out[6] = get1d(base + 6);
+        if constexpr (kLight) {
+            out[0] = get1d(base);
+            const Vec2f a = get2d(base + 1);
+            out[1] = a.x;
+            out[2] = a.y;
+        }
+        if constexpr (kBounce) {
+            out[3] = get1d(base + 3);
+            const Vec2f b = get2d(base + 4);
+            out[4] = b.x;
+            out[5] = b.y;
+            out[6] = get1d(base + 6);
+        }
         return;
     }
     // get1d and get2d's sobol draws written out stage by stage (keys, shuffles,
     // scrambles), so the five chains interleave: the same draws as five calls of one
     // inlined helper each, which the compiler leaves one after the other, made a render
     // 3-4 % slower.
-    const uint64_t k0 = key(base), k1 = key(base + 1), k3 = key(base + 3),
-                   k4 = key(base + 4), k6 = key(base + 6);
-    const uint32_t i0 = shuffle_reversed_index(reversed_sample_, uint32_t(k0));
-    const uint32_t i1 = shuffle_reversed_index(reversed_sample_, uint32_t(k1));
-    const uint32_t i3 = shuffle_reversed_index(reversed_sample_, uint32_t(k3));
-    const uint32_t i4 = shuffle_reversed_index(reversed_sample_, uint32_t(k4));
-    const uint32_t i6 = shuffle_reversed_index(reversed_sample_, uint32_t(k6));
-    out[0] = to_unit(owen_sobol0(i0, uint32_t(k0 >> 32)));
-    const Vec2f a = to_unit2(owen_sobol01(i1, uint32_t(k1 >> 32), third_seed(k1)));
-    out[3] = to_unit(owen_sobol0(i3, uint32_t(k3 >> 32)));
-    const Vec2f b = to_unit2(owen_sobol01(i4, uint32_t(k4 >> 32), third_seed(k4)));
-    out[6] = to_unit(owen_sobol0(i6, uint32_t(k6 >> 32)));
-    out[1] = a.x;
-    out[2] = a.y;
-    out[4] = b.x;
-    out[5] = b.y;
+    uint64_t k0 = 0, k1 = 0, k3 = 0, k4 = 0, k6 = 0;
+    if constexpr (kLight) k0 = key(base), k1 = key(base + 1);
+    if constexpr (kBounce) k3 = key(base + 3), k4 = key(base + 4), k6 = key(base + 6);
+    uint32_t i0 = 0, i1 = 0, i3 = 0, i4 = 0, i6 = 0;
+    if constexpr (kLight) {
+        i0 = shuffle_reversed_index(reversed_sample_, uint32_t(k0));
+        i1 = shuffle_reversed_index(reversed_sample_, uint32_t(k1));
+    }
+    if constexpr (kBounce) {
+        i3 = shuffle_reversed_index(reversed_sample_, uint32_t(k3));
+        i4 = shuffle_reversed_index(reversed_sample_, uint32_t(k4));
+        i6 = shuffle_reversed_index(reversed_sample_, uint32_t(k6));
+    }
+    if constexpr (kLight) {
+        out[0] = to_unit(owen_sobol0(i0, uint32_t(k0 >> 32)));
+        const Vec2f a = to_unit2(owen_sobol01(i1, uint32_t(k1 >> 32), third_seed(k1)));
+        out[1] = a.x;
+        out[2] = a.y;
+    }
+    if constexpr (kBounce) {
+        out[3] = to_unit(owen_sobol0(i3, uint32_t(k3 >> 32)));
+        const Vec2f b = to_unit2(owen_sobol01(i4, uint32_t(k4 >> 32), third_seed(k4)));
+        out[6] = to_unit(owen_sobol0(i6, uint32_t(k6 >> 32)));
+        out[4] = b.x;
+        out[5] = b.y;
+    }
 }
 
 }  // namespace renderer

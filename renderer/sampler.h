@@ -83,8 +83,12 @@ public:
     Sampler(SamplerKind kind, uint64_t seed, int spp, int width, int height);
     SamplerKind kind() const { return kind_; }
     uint64_t seed() const { return seed_; }
+    /// The same sampler (seed, tables) laid out for another sample count: bounce
+    /// splitting's branch sampler (IntegratorSettings::split).
+    Sampler with_spp(int spp, int width, int height) const;
 
 private:
+    void lay_out(int spp, int width, int height);
     friend class PixelSample;
     SamplerKind kind_;
     uint64_t seed_;
@@ -106,6 +110,10 @@ inline constexpr uint32_t kPmjTables = 64;
 /// from the stream `seed`. Every prefix of power-of-two length is a (0,m,2)-net.
 std::vector<uint32_t> generate_pmj02(uint32_t n, uint64_t seed);
 
+/// Which of a path vertex's numbers PixelSample::vertex_draws computes: all, the light
+/// sample's (choice and point), or the bounce's (lobe, direction, roulette).
+enum class VertexDraws : uint8_t { All, Light, Bounce };
+
 /// The numbers of one camera sample. Cheap to make (a few hashes); no virtual calls: one
 /// switch on the kind per draw.
 class PixelSample {
@@ -114,10 +122,14 @@ public:
     float get1d(uint32_t dim) const;
     Vec2f get2d(uint32_t dim) const;
     /// The kPerBounce numbers of the path vertex whose dimensions start at `base` (below
-    /// kLdDimensions), as get1d and get2d would give them, into out[0 .. kPerBounce).
-    void vertex_draws(uint32_t base, float* out) const;
+    /// kLdDimensions), as get1d and get2d would give them, into out[0 .. kPerBounce);
+    /// `parts`: only its light numbers (out[kLightChoice .. kBsdfLobe)) or only its bounce
+    /// numbers (out[kBsdfLobe .. kPerBounce)), the others left as they were.
+    void vertex_draws(uint32_t base, float* out, VertexDraws parts = VertexDraws::All) const;
 
   private:
+    template <bool kLight, bool kBounce>
+    void vertex_draws(uint32_t base, float* out) const;
     const Sampler* s_;
     uint64_t pixel_key_;  // hash of (seed, pixel), pixel = y * width + x: key()'s per-sample part
     uint64_t morton_;    // zsobol: Morton code of (x, y), shifted above the sample bits

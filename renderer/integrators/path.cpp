@@ -163,7 +163,7 @@ Vec3f PathIntegrator::walk(Interaction it, Vec3f wo, VertexParts first, SampleCo
     Vec3f beta(1.0f);
     float eta_scale = 1.0f;  // product of eta^2 over the refractions so far
     for (int bounce = 1; bounce <= s_.max_depth; ++bounce) {
-        ctx.draw_vertex(bounce);
+        ctx.draw_vertex(bounce, bounce == 1 ? first.draws() : VertexDraws::All);
         // Non-diffuse materials take the general BSDF path; diffuse ones keep the
         // Lambert-only loop below, so a diffuse scene costs what it did before.
         if (it.material < scene_.materials.size()) {

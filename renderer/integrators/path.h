@@ -30,6 +30,10 @@ private:
         bool direct = true;
         bool bounce = true;
         float bsdf_count = 1.0f;
+        /// The vertex's numbers it reads.
+        VertexDraws draws() const {
+            return direct && bounce ? VertexDraws::All : direct ? VertexDraws::Light : VertexDraws::Bounce;
+        }
     };
     /// The path from its first vertex `it` (reached along -wo) on, the first vertex doing
     /// `first`: the light it gathers.

@@ -151,6 +151,16 @@ TEST(Sampler, VertexDrawsAreTheSingleDraws) {
                 ASSERT_EQ(v[dims::kBsdfDir], dir.x);
                 ASSERT_EQ(v[dims::kBsdfDir + 1], dir.y);
                 ASSERT_EQ(v[dims::kRoulette], ps.get1d(d + dims::kRoulette));
+                // A vertex's light or bounce numbers alone: the same, the rest untouched.
+                for (VertexDraws parts : {VertexDraws::Light, VertexDraws::Bounce}) {
+                    float w[dims::kPerBounce];
+                    std::fill(std::begin(w), std::end(w), -1.0f);
+                    ps.vertex_draws(d, w, parts);
+                    for (uint32_t k = 0; k < dims::kPerBounce; ++k) {
+                        const bool drawn = (k < dims::kBsdfLobe) == (parts == VertexDraws::Light);
+                        ASSERT_EQ(w[k], drawn ? v[k] : -1.0f) << sampler_name(kind) << " number " << k;
+                    }
+                }
             }
         }
     }
