@@ -20,7 +20,7 @@ check() {  # check NAME EXPECTED_STATUS PATTERN -- command...
 check help 0 "--embree-quality" -- "$PT" --help
 grep -q "KHR_materials_unlit" "$TMP/out" || { echo "FAIL help does not list KHR_materials_unlit"; fails=$((fails+1)); }
 for opt in -s -l -t -m -o -a -H -f -r -p --integrator --accel --bvh --leaf-size --triangle \
-           --embree-quality --embree-robust --embree-count --camera --seed --rr --sampler --only --max-memory; do
+           --embree-quality --embree-robust --embree-count --camera --seed --rr --split --sampler --only --max-memory; do
   grep -qE -- "^ +$opt[ ,]" "$TMP/out" || { echo "FAIL help does not document $opt"; fails=$((fails+1)); }
 done
 check missing-scene 2 "error: $TMP/nope.dae: no such file" -- "$PT" "$TMP/nope.dae"
@@ -113,6 +113,9 @@ check rr-fixed 0 "Render time" -- "$PT" -r 16 12 -s 2 --rr 0.65 -f "$TMP/rr.exr"
 check bad-rr 2 "--rr 1.5" -- "$PT" --rr 1.5 "$SRC/scenes/cornell.dae"
 check bad-rr-word 2 "--rr fast" -- "$PT" --rr fast "$SRC/scenes/cornell.dae"
 check bad-sampler 2 "--sampler" -- "$PT" --sampler=halton "$SRC/scenes/cornell.dae"
+# --split: bounce rays per camera hit, 1 for the unsplit path tracer; 0 is refused.
+check split-one 0 "Render time" -- "$PT" -r 16 12 -s 2 --split 1 -f "$TMP/split.exr" "$SRC/scenes/cornell.dae"
+check bad-split 2 "--split" -- "$PT" --split 0 "$SRC/scenes/cornell.dae"
 # Every sampler's image is the same for any thread count, tile and pass size, on a scene
 # with glass, mirror and microfacet spheres (every kind of dimension is drawn).
 if command -v idiff >/dev/null; then
