@@ -50,7 +50,7 @@ struct SampleContext {
         sampler->vertex_draws(base, vertex_, parts);
         vertex_base_ = base;
         vertex_lo_ = base + (parts == VertexDraws::Bounce ? dims::kBsdfLobe : 0);
-        vertex_n_ = parts == VertexDraws::All ? dims::kPerBounce
+        vertex_n_ = parts == VertexDraws::All     ? dims::kPerBounce
                     : parts == VertexDraws::Light ? dims::kBsdfLobe
                                                   : dims::kPerBounce - dims::kBsdfLobe;
     }
@@ -59,7 +59,8 @@ struct SampleContext {
         return sampler ? sampler->get1d(dim) : rng.next_float();
     }
     Vec2f get2d(uint32_t dim) {
-        if (dim - vertex_lo_ < vertex_n_) return {vertex_[dim - vertex_base_], vertex_[dim - vertex_base_ + 1]};
+        if (dim - vertex_lo_ < vertex_n_)
+            return {vertex_[dim - vertex_base_], vertex_[dim - vertex_base_ + 1]};
         if (sampler) return sampler->get2d(dim);
         const float u0 = rng.next_float();
         return {u0, rng.next_float()};
@@ -81,8 +82,8 @@ struct SampleContext {
     }
     std::optional<PixelSample> branch_{};
 
-    /// draw_vertex's numbers, their first dimension, and the range [vertex_lo_, vertex_lo_
-    /// + vertex_n_) of dimensions it drew (none before the first draw).
+    /// draw_vertex's numbers, their first dimension, and the dimensions it drew:
+    /// vertex_n_ of them from vertex_lo_ on (none before the first draw).
     float vertex_[dims::kPerBounce] = {};
     uint32_t vertex_base_ = 0, vertex_lo_ = 0, vertex_n_ = 0;
 };

@@ -4,16 +4,15 @@
 #include <tbb/global_control.h>
 #include <tbb/parallel_for.h>
 #include <tbb/task_arena.h>
+#include <unistd.h>
 
 #include <algorithm>
-#include <cmath>
 #include <chrono>
+#include <cmath>
 #include <cstdio>
 #include <mutex>
 #include <optional>
 #include <stdexcept>
-
-#include <unistd.h>
 
 namespace renderer {
 
@@ -137,7 +136,8 @@ RenderResult render(const Camera& camera, const Integrator& integrator,
     const bool independent = s.sampler == SamplerKind::Independent;
     const int branches = integrator.branches();
     std::optional<Sampler> branch_sampler;
-    if (branches > 1 && !independent) branch_sampler.emplace(sampler.with_spp(s.spp * branches, s.width, s.height));
+    if (branches > 1 && !independent)
+        branch_sampler.emplace(sampler.with_spp(s.spp * branches, s.width, s.height));
 
     stage("rendering");
     tbb::enumerable_thread_specific<accel::TraceStats> thread_stats;

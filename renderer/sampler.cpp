@@ -329,12 +329,14 @@ std::vector<uint32_t> generate_pmj02(uint32_t n, uint64_t seed) {
     }
 }
 
-Sampler::Sampler(SamplerKind kind, uint64_t seed, int spp, int width, int height) : kind_(kind), seed_(seed) {
+Sampler::Sampler(SamplerKind kind, uint64_t seed, int spp, int width, int height)
+    : kind_(kind), seed_(seed) {
     lay_out(spp, width, height);
     if (kind_ == SamplerKind::Pmj02) {
         pmj_.reserve(size_t(2) * kPmjSamples * kPmjTables);
         for (uint32_t t = 0; t < kPmjTables; ++t) {
-            const std::vector<uint32_t> table = generate_pmj02(kPmjSamples, 0x7AB1E000ull + t);
+            const std::vector<uint32_t> table =
+                generate_pmj02(kPmjSamples, 0x7AB1E000ull + t);
             pmj_.insert(pmj_.end(), table.begin(), table.end());
         }
     }
@@ -495,9 +497,12 @@ Vec2f PixelSample::get2d(uint32_t dim) const {
 
 void PixelSample::vertex_draws(uint32_t base, float* out, VertexDraws parts) const {
     switch (parts) {
-        case VertexDraws::All: return vertex_draws<true, true>(base, out);
-        case VertexDraws::Light: return vertex_draws<true, false>(base, out);
-        case VertexDraws::Bounce: return vertex_draws<false, true>(base, out);
+        case VertexDraws::All:
+            return vertex_draws<true, true>(base, out);
+        case VertexDraws::Light:
+            return vertex_draws<true, false>(base, out);
+        case VertexDraws::Bounce:
+            return vertex_draws<false, true>(base, out);
     }
 }
 

@@ -87,7 +87,7 @@ public:
     /// splitting's branch sampler (IntegratorSettings::split).
     Sampler with_spp(int spp, int width, int height) const;
 
-private:
+  private:
     void lay_out(int spp, int width, int height);
     friend class PixelSample;
     SamplerKind kind_;
@@ -123,9 +123,10 @@ public:
     Vec2f get2d(uint32_t dim) const;
     /// The kPerBounce numbers of the path vertex whose dimensions start at `base` (below
     /// kLdDimensions), as get1d and get2d would give them, into out[0 .. kPerBounce);
-    /// `parts`: only its light numbers (out[kLightChoice .. kBsdfLobe)) or only its bounce
-    /// numbers (out[kBsdfLobe .. kPerBounce)), the others left as they were.
-    void vertex_draws(uint32_t base, float* out, VertexDraws parts = VertexDraws::All) const;
+    /// `parts`: only its light numbers (out[kLightChoice .. kBsdfLobe)) or only its
+    /// bounce numbers (out[kBsdfLobe .. kPerBounce)), the others left as they were.
+    void vertex_draws(uint32_t base, float* out,
+                      VertexDraws parts = VertexDraws::All) const;
 
   private:
     template <bool kLight, bool kBounce>

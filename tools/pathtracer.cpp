@@ -174,8 +174,9 @@ void add_scene_options(CLI::App& app, Options& o) {
                    "uses 0.65; 1 = no roulette)")
         ->type_name("throughput|sqrt|P");
     app.add_option("--split", o.is.split,
-                   "Bounce rays per camera hit on a diffuse surface: its direct light is sampled "
-                   "once and its bounce K times, each branch a path of its own (1 = no splitting)")
+                   "Bounce rays per camera hit (default 4): its direct light is sampled once "
+                   "and its bounce K times, each branch a path of its own; 1 = one path per "
+                   "camera sample, as in the course")
         ->check(CLI::Range(1, 64));
     app.add_option("--sampler", o.sampler,
                    "Where each sample's random numbers come from: independent (the per-sample PCG32 "

@@ -143,7 +143,8 @@ Vec3f PathIntegrator::li(const accel::Ray& camera_ray, SampleContext& ctx) const
     return L + walk(it, wo, VertexParts{}, ctx);
 }
 
-Vec3f PathIntegrator::split_at_camera_hit(const Interaction& it, const Vec3f& wo, SampleContext& ctx) const {
+Vec3f PathIntegrator::split_at_camera_hit(const Interaction& it, const Vec3f& wo,
+                                          SampleContext& ctx) const {
     const float k = float(s_.split);
     // The camera hit's direct light once, from the camera sample's numbers, each light
     // sample weighed against the k bounce samples; then k branches without it.
@@ -157,7 +158,8 @@ Vec3f PathIntegrator::split_at_camera_hit(const Interaction& it, const Vec3f& wo
     return L + branches / k;
 }
 
-Vec3f PathIntegrator::walk(Interaction it, Vec3f wo, VertexParts first, SampleContext& ctx) const {
+Vec3f PathIntegrator::walk(Interaction it, Vec3f wo, VertexParts first,
+                           SampleContext& ctx) const {
     Vec3f L(0.0f);
     accel::Hit hit;
     Vec3f beta(1.0f);
@@ -177,7 +179,8 @@ Vec3f PathIntegrator::walk(Interaction it, Vec3f wo, VertexParts first, SampleCo
                 // At the camera hit the albedo AOV is the glTF material's base colour
                 // (aov_albedo), looked up already: one texture lookup less per sample.
                 const bool aov_is_base = bounce == 1 && m.bsdf == scenes::BsdfKind::MetallicRoughness;
-                if (!scatter(m, bounce, it, wo, beta, eta_scale, L, ctx, aov_is_base ? &ctx.aov.albedo : nullptr,
+                if (!scatter(m, bounce, it, wo, beta, eta_scale, L, ctx,
+                             aov_is_base ? &ctx.aov.albedo : nullptr,
                              bounce == 1 ? first : VertexParts{}))
                     break;
                 continue;
@@ -197,7 +200,8 @@ Vec3f PathIntegrator::walk(Interaction it, Vec3f wo, VertexParts first, SampleCo
         const VertexParts part = bounce == 1 ? first : VertexParts{};
         if (counts(bounce) && part.direct)
             L += beta * (s_.hemisphere ? direct_hemisphere(it, bounce, albedo, ctx)
-                                       : direct_lights(it, bounce, albedo, ctx, mis, part.bsdf_count));
+                                       : direct_lights(it, bounce, albedo, ctx, mis,
+                                                       part.bsdf_count));
         if (bounce == s_.max_depth || !part.bounce) break;
         // The course's fixed-probability roulette from the second bounce on: unbiased,
         // since survivors are reweighted by 1/p.
@@ -242,8 +246,9 @@ Vec3f PathIntegrator::walk(Interaction it, Vec3f wo, VertexParts first, SampleCo
     return L;
 }
 
-bool PathIntegrator::scatter(const scenes::Material& m, int bounce, Interaction& it, Vec3f& wo, Vec3f& beta,
-                             float& eta_scale, Vec3f& L, SampleContext& ctx, const Vec3f* base_colour,
+bool PathIntegrator::scatter(const scenes::Material& m, int bounce, Interaction& it,
+                             Vec3f& wo, Vec3f& beta, float& eta_scale, Vec3f& L,
+                             SampleContext& ctx, const Vec3f* base_colour,
                              VertexParts part) const {
     // The local frame faces wo; `front` remembers which side of the surface that is, for
     // a dielectric's relative index.
@@ -377,9 +382,9 @@ bool PathIntegrator::occluded(const Interaction& it, const LightSample& ls, Samp
     return ctx.accel.occluded(shadow, ctx.stats);
 }
 
-Vec3f PathIntegrator::direct_bsdf(const Interaction& it, int bounce, const Vec3f& wo_l, const Vec3f& t,
-                                  const Vec3f& bt, const bsdf::Bsdf& b, SampleContext& ctx,
-                                  float bsdf_count) const {
+Vec3f PathIntegrator::direct_bsdf(const Interaction& it, int bounce, const Vec3f& wo_l,
+                                  const Vec3f& t, const Vec3f& bt, const bsdf::Bsdf& b,
+                                  SampleContext& ctx, float bsdf_count) const {
     return sum_light_samples(lights_, s_.light_samples, it, bounce, ctx, [&](size_t i, int n, const LightSample& ls) {
         const Vec3f wi_l(accel::dot(ls.wi, t), accel::dot(ls.wi, bt), accel::dot(ls.wi, it.ns));
         if ((accel::dot(it.ng, ls.wi) > 0) != (wi_l.z > 0)) return Vec3f(0.0f);
@@ -387,23 +392,28 @@ Vec3f PathIntegrator::direct_bsdf(const Interaction& it, int bounce, const Vec3f
         if (is_black(f)) return Vec3f(0.0f);
         // Lights a BSDF sample can also hit share the estimate by the power heuristic;
         // n light samples count n times in the light strategy's density.
-        const float w = ls.delta || !lights_.hittable(i) || s_.strategy == IntegratorSettings::Strategy::Light
-                            ? 1.0f
-                            : mis_weight(float(n) * ls.pdf, bsdf_count * b.pdf(wo_l, wi_l));
+        const float w =
+            ls.delta || !lights_.hittable(i) ||
+                    s_.strategy == IntegratorSettings::Strategy::Light
+                ? 1.0f
+                : mis_weight(float(n) * ls.pdf, bsdf_count * b.pdf(wo_l, wi_l));
         if (occluded(it, ls, ctx)) return Vec3f(0.0f);
         return ls.radiance * f * (std::abs(wi_l.z) * w / ls.pdf);
     });
 }
 
-Vec3f PathIntegrator::direct_lights(const Interaction& it, int bounce, const Vec3f& albedo, SampleContext& ctx,
-                                    bool mis, float bsdf_count) const {
+Vec3f PathIntegrator::direct_lights(const Interaction& it, int bounce,
+                                    const Vec3f& albedo, SampleContext& ctx, bool mis,
+                                    float bsdf_count) const {
     const Vec3f f = albedo * accel::kInvPi;  // Lambert: R / pi
     return sum_light_samples(lights_, s_.light_samples, it, bounce, ctx, [&](size_t i, int n, const LightSample& ls) {
         const float cos_s = accel::dot(it.ns, ls.wi);
         if (!(cos_s > 0) || accel::dot(it.ng, ls.wi) <= 0) return Vec3f(0.0f);
         // The bounce's cosine sampling finds this direction with density cos / pi.
-        const float w = mis && !ls.delta && lights_.hittable(i) ? mis_weight(float(n) * ls.pdf, bsdf_count * cos_s * accel::kInvPi)
-                                                                : 1.0f;
+        const float w =
+            mis && !ls.delta && lights_.hittable(i)
+                ? mis_weight(float(n) * ls.pdf, bsdf_count * cos_s * accel::kInvPi)
+                : 1.0f;
         if (!(w > 0) || occluded(it, ls, ctx)) return Vec3f(0.0f);
         return ls.radiance * f * (cos_s * w / ls.pdf);
     });

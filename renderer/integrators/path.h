@@ -22,7 +22,7 @@ public:
 
     int branches() const override { return s_.split; }
 
-private:
+  private:
     /// What a path vertex does: its direct light, its bounce, and how many bounce samples
     /// the vertex takes in all (the split at the camera hit), which weigh its light
     /// samples against the light its bounce rays find.
@@ -32,7 +32,9 @@ private:
         float bsdf_count = 1.0f;
         /// The vertex's numbers it reads.
         VertexDraws draws() const {
-            return direct && bounce ? VertexDraws::All : direct ? VertexDraws::Light : VertexDraws::Bounce;
+            return direct && bounce ? VertexDraws::All
+                   : direct         ? VertexDraws::Light
+                                    : VertexDraws::Bounce;
         }
     };
     /// The path from its first vertex `it` (reached along -wo) on, the first vertex doing
@@ -40,24 +42,28 @@ private:
     Vec3f walk(Interaction it, Vec3f wo, VertexParts first, SampleContext& ctx) const;
     /// The camera hit's direct light once and its bounce `split` times, the branches
     /// averaged (IntegratorSettings::split).
-    Vec3f split_at_camera_hit(const Interaction& it, const Vec3f& wo, SampleContext& ctx) const;
+    Vec3f split_at_camera_hit(const Interaction& it, const Vec3f& wo,
+                              SampleContext& ctx) const;
     /// Light arriving at `it` directly from emitters, times the BSDF and cosine.
     /// `bounce`: the vertex's index along the path (1 = first hit), for its dimensions.
     /// mis: weigh each light sample against the diffuse bounce's cosine sampling, which
     /// then adds the light it finds (found_light).
     /// bsdf_count: bounce samples the light sample is weighed against (split).
-    Vec3f direct_lights(const Interaction& it, int bounce, const Vec3f& albedo, SampleContext& ctx,
-                        bool mis = false, float bsdf_count = 1.0f) const;
+    Vec3f direct_lights(const Interaction& it, int bounce, const Vec3f& albedo,
+                        SampleContext& ctx, bool mis = false,
+                        float bsdf_count = 1.0f) const;
     Vec3f direct_hemisphere(const Interaction& it, int bounce, const Vec3f& albedo, SampleContext& ctx) const;
     /// One vertex on a non-diffuse material: direct light through its BSDF (skipped for
-    /// delta lobes), then a BSDF-sampled bounce. Updates it, wo, beta; false ends the path.
-    /// eta_scale: the product of eta^2 over the refractions so far (for the roulette).
-    /// base_colour: make_bsdf's, where already looked up.
-    /// part: what the vertex does (VertexParts).
-    bool scatter(const scenes::Material& m, int bounce, Interaction& it, Vec3f& wo, Vec3f& beta,
-                 float& eta_scale, Vec3f& L, SampleContext& ctx, const Vec3f* base_colour, VertexParts part) const;
-    Vec3f direct_bsdf(const Interaction& it, int bounce, const Vec3f& wo_l, const Vec3f& t, const Vec3f& bt,
-                      const bsdf::Bsdf& b, SampleContext& ctx, float bsdf_count) const;
+    /// delta lobes), then a BSDF-sampled bounce. Updates it, wo, beta; false ends the
+    /// path. eta_scale: the product of eta^2 over the refractions so far (for the
+    /// roulette). base_colour: make_bsdf's, where already looked up. part: what the
+    /// vertex does (VertexParts).
+    bool scatter(const scenes::Material& m, int bounce, Interaction& it, Vec3f& wo,
+                 Vec3f& beta, float& eta_scale, Vec3f& L, SampleContext& ctx,
+                 const Vec3f* base_colour, VertexParts part) const;
+    Vec3f direct_bsdf(const Interaction& it, int bounce, const Vec3f& wo_l,
+                      const Vec3f& t, const Vec3f& bt, const bsdf::Bsdf& b,
+                      SampleContext& ctx, float bsdf_count) const;
     /// The light that a BSDF-sampled ray from p (shading normal n) in direction wi found:
     /// the emitter `next` it hit, or the environment when next is null, times
     /// weight(light density), the light strategy's density for that direction.

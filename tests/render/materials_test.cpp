@@ -227,8 +227,8 @@ TEST(CourseCamera, ThinLensKeepsTheFocalPlaneSharp) {
 
 namespace {
 
-/// Veach's test scene in miniature (Veach 1997, fig. 9.2): a glossy floor lit by a tiny, a
-/// medium and a large emitter of similar power. Built but for its integrator.
+/// Veach's test scene in miniature (Veach 1997, fig. 9.2): a glossy floor lit by a tiny,
+/// a medium and a large emitter of similar power. Built but for its integrator.
 World glossy_floor_world() {
     World w;
     w.scene.up = Vec3f(0, 0, 1);
@@ -266,9 +266,9 @@ std::vector<Vec3f> glossy_floor_targets() {
 }  // namespace
 
 TEST(Mis, GlossyFloorWithLightsOfSeveralSizes) {
-    // Light sampling wins on the tiny light, BSDF sampling on the large one; MIS must beat
-    // both over the image (summed variance at the same sample count) and all three must
-    // agree (each region's means within 3 standard errors). Direct light only.
+    // Light sampling wins on the tiny light, BSDF sampling on the large one; MIS must
+    // beat both over the image (summed variance at the same sample count) and all three
+    // must agree (each region's means within 3 standard errors). Direct light only.
     World w = glossy_floor_world();
     const Vec3f cam = kGlossyFloorCamera;
     const std::vector<Vec3f> targets = glossy_floor_targets();
@@ -355,23 +355,26 @@ TEST(Mis, DiffuseCeilingJustAboveATwoSidedPanel) {
 
 TEST(Mis, SplitBounceWeighsItsLightSampleAgainstEveryBranch) {
     // Split k ways (--split), the camera hit weighs its one light sample against k bounce
-    // samples, and each branch the emitter its bounce ray finds against that light sample,
-    // with the sample counts in the power heuristic (Veach 1997, 9.2.4): the glossy floor
-    // (BSDF vertices) and the slit's ceiling and floor (diffuse vertices) keep the
-    // unsplit estimate. Counting one bounce sample instead of k moves the estimate beyond
-    // these bounds.
+    // samples, and each branch the emitter its bounce ray finds against that light
+    // sample, with the sample counts in the power heuristic (Veach 1997, 9.2.4): the
+    // glossy floor (BSDF vertices) and the slit's ceiling and floor (diffuse vertices)
+    // keep the unsplit estimate. Counting one bounce sample instead of k moves the
+    // estimate beyond these bounds.
     World glossy = glossy_floor_world();
     World slit = slit_world();
-    const accel::Ray slit_rays[] = {ray(Vec3f(0.1f, 0.05f, 1.495f), Vec3f(0, 0, 1)),
-                                    ray(Vec3f(0.5f, -1.0f, 1.0f), Vec3f(0.2f, -0.1f, -1.0f))};
+    const accel::Ray slit_rays[] = {
+        ray(Vec3f(0.1f, 0.05f, 1.495f), Vec3f(0, 0, 1)),
+        ray(Vec3f(0.5f, -1.0f, 1.0f), Vec3f(0.2f, -0.1f, -1.0f))};
     std::vector<Estimate> est[2];
     for (int k = 0; k < 2; ++k) {
         IntegratorSettings is;
         is.max_depth = 2;
         is.split = k ? 4 : 1;
-        glossy.integrator = std::make_unique<PathIntegrator>(glossy.scene, *glossy.geometry, *glossy.lights, is);
+        glossy.integrator = std::make_unique<PathIntegrator>(
+            glossy.scene, *glossy.geometry, *glossy.lights, is);
         for (const Vec3f& t : glossy_floor_targets())
-            est[k].push_back(li(glossy, ray(kGlossyFloorCamera, t - kGlossyFloorCamera), 3000));
+            est[k].push_back(
+                li(glossy, ray(kGlossyFloorCamera, t - kGlossyFloorCamera), 3000));
         is.max_depth = 4;
         slit.build(is);
         for (const accel::Ray& r : slit_rays) est[k].push_back(li(slit, r, 20000));
@@ -379,7 +382,8 @@ TEST(Mis, SplitBounceWeighsItsLightSampleAgainstEveryBranch) {
     for (size_t r = 0; r < est[0].size(); ++r) {
         const Estimate& a = est[0][r];
         const Estimate& b = est[1][r];
-        EXPECT_NEAR(a.mean, b.mean, 3 * std::sqrt(a.se * a.se + b.se * b.se) + 1e-6) << "ray " << r;
+        EXPECT_NEAR(a.mean, b.mean, 3 * std::sqrt(a.se * a.se + b.se * b.se) + 1e-6)
+            << "ray " << r;
     }
 }
 

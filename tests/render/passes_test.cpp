@@ -72,17 +72,25 @@ RenderSettings base(int spp) {
     return rs;
 }
 
-}  // namespace
-
-TEST(Passes, AnySplitOfTheWorkGivesTheSameBits) {
+/// Two splits of the same 12-spp work with sampler k: one thread, one pass, 32-pixel
+/// tiles; two threads, 5-sample passes, 7-pixel tiles.
+std::pair<RenderSettings, RenderSettings> two_splits(SamplerKind k) {
     RenderSettings a = base(12);
+    a.sampler = k;
     a.threads = 1;
     a.pass_spp = 12;
     a.tile = 32;
-    RenderSettings b = base(12);
+    RenderSettings b = a;
     b.threads = 2;
-    b.pass_spp = 5;  // passes of 5, 5, 2
+    b.pass_spp = 5;
     b.tile = 7;
+    return {a, b};
+}
+
+}  // namespace
+
+TEST(Passes, AnySplitOfTheWorkGivesTheSameBits) {
+    const auto [a, b] = two_splits(RenderSettings{}.sampler);  // b: passes of 5, 5, 2
     const RenderResult ra = world().render(a), rb = world().render(b);
     expect_same(ra, rb);
     EXPECT_EQ(ra.samples, 40u * 30u * 12u);
@@ -147,15 +155,7 @@ TEST(Passes, EverySamplerGivesTheSameBitsForAnySplit) {
     for (SamplerKind k : {SamplerKind::Independent, SamplerKind::Stratified, SamplerKind::Sobol,
                           SamplerKind::ZSobol, SamplerKind::Pmj02}) {
         SCOPED_TRACE(sampler_name(k));
-        RenderSettings a = base(12);
-        a.sampler = k;
-        a.threads = 1;
-        a.pass_spp = 12;
-        a.tile = 32;
-        RenderSettings b = a;
-        b.threads = 2;
-        b.pass_spp = 5;
-        b.tile = 7;
+        const auto [a, b] = two_splits(k);
         const RenderResult ra = world().render(a);
         expect_same(ra, world().render(b));
 
@@ -199,21 +199,15 @@ TEST(Passes, EverySamplerGivesTheSameBitsForAnySplit) {
 // times the sample count: still a pure function of (seed, pixel, sample), so any split of
 // the work gives the same bits, and the branches are really drawn apart.
 TEST(Passes, SplitBranchesGiveTheSameBitsForAnySplitOfTheWork) {
-    for (SamplerKind k : {SamplerKind::Independent, SamplerKind::Stratified, SamplerKind::Sobol,
-                          SamplerKind::ZSobol, SamplerKind::Pmj02}) {
+    for (SamplerKind k : {SamplerKind::Independent, SamplerKind::Stratified,
+                          SamplerKind::Sobol, SamplerKind::ZSobol, SamplerKind::Pmj02}) {
         SCOPED_TRACE(sampler_name(k));
-        RenderSettings a = base(12);
-        a.sampler = k;
-        a.threads = 1;
-        a.pass_spp = 12;
-        RenderSettings b = a;
-        b.threads = 2;
-        b.pass_spp = 5;
-        b.tile = 7;
+        const auto [a, b] = two_splits(k);
         const RenderResult ra = split_world().render(a);
         expect_same(ra, split_world().render(b));
         const RenderResult unsplit = world().render(a);
-        EXPECT_GT(ra.stats.rays, unsplit.stats.rays + unsplit.stats.rays / 2) << "three bounce rays per camera hit";
+        EXPECT_GT(ra.stats.rays, unsplit.stats.rays + unsplit.stats.rays / 2)
+            << "three bounce rays per camera hit";
         EXPECT_NE(0, std::memcmp(ra.image.pixels.data(), unsplit.image.pixels.data(),
                                  ra.image.pixels.size() * sizeof(float)));
     }

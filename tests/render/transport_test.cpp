@@ -137,12 +137,17 @@ TEST(WhiteFurnace, SplitBouncesKeepTheFurnace) {
                 is.hemisphere = hemisphere;
                 is.split = k;
                 World s = furnace(a, Le, is);
-                Estimate e = estimate(*s.integrator, *s.accel, ray_to({0.1f, 0.2f, 0.0f}, {1, 0.3f, 0.2f}), 10000, 3);
+                Estimate e =
+                    estimate(*s.integrator, *s.accel,
+                             ray_to({0.1f, 0.2f, 0.0f}, {1, 0.3f, 0.2f}), 10000, 3);
                 EXPECT_NEAR(e.mean, expected, 3.0 * e.se + 1e-6)
-                    << "hemisphere=" << hemisphere << " rr=" << rr << " split=" << k << " se=" << e.se;
+                    << "hemisphere=" << hemisphere << " rr=" << rr << " split=" << k
+                    << " se=" << e.se;
                 se[k == 4] = e.se;
             }
-            if (!hemisphere && rr < 0) EXPECT_LT(se[1], 0.6 * se[0]) << "four branches, a quarter of the variance";
+            if (!hemisphere && rr < 0)
+                EXPECT_LT(se[1], 0.6 * se[0])
+                    << "four branches, a quarter of the variance";
         }
     }
 }

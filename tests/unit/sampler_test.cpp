@@ -157,8 +157,10 @@ TEST(Sampler, VertexDrawsAreTheSingleDraws) {
                     std::fill(std::begin(w), std::end(w), -1.0f);
                     ps.vertex_draws(d, w, parts);
                     for (uint32_t k = 0; k < dims::kPerBounce; ++k) {
-                        const bool drawn = (k < dims::kBsdfLobe) == (parts == VertexDraws::Light);
-                        ASSERT_EQ(w[k], drawn ? v[k] : -1.0f) << sampler_name(kind) << " number " << k;
+                        const bool drawn =
+                            (k < dims::kBsdfLobe) == (parts == VertexDraws::Light);
+                        ASSERT_EQ(w[k], drawn ? v[k] : -1.0f)
+                            << sampler_name(kind) << " number " << k;
                     }
                 }
             }
