@@ -87,7 +87,7 @@ public:
     /// splitting's branch sampler (IntegratorSettings::split).
     Sampler with_spp(int spp, int width, int height) const;
 
-  private:
+private:
     void lay_out(int spp, int width, int height);
     friend class PixelSample;
     SamplerKind kind_;
@@ -128,15 +128,15 @@ public:
     void vertex_draws(uint32_t base, float* out,
                       VertexDraws parts = VertexDraws::All) const;
 
-  private:
+private:
     template <bool kLight, bool kBounce>
     void vertex_draws(uint32_t base, float* out) const;
     const Sampler* s_;
     uint64_t pixel_key_;  // hash of (seed, pixel), pixel = y * width + x: key()'s per-sample part
     uint64_t morton_;    // zsobol: Morton code of (x, y), shifted above the sample bits
     uint32_t sample_;
-    uint32_t
-        reversed_sample_;  // sample_'s bits reversed, where sobol's index shuffle starts
+    // sample_'s bits reversed, where sobol's index shuffle starts
+    uint32_t reversed_sample_;
     uint64_t sample_hash_[2];  // the sample's part of `hashed`, for its two coordinates
     uint64_t key(uint32_t dim) const;
     float hashed(uint32_t dim, uint32_t which) const;

@@ -165,7 +165,9 @@ Vec3f PathIntegrator::walk(Interaction it, Vec3f wo, VertexParts first,
     Vec3f beta(1.0f);
     float eta_scale = 1.0f;  // product of eta^2 over the refractions so far
     for (int bounce = 1; bounce <= s_.max_depth; ++bounce) {
-        ctx.draw_vertex(bounce, bounce == 1 ? first.draws() : VertexDraws::All);
+        // What this vertex does: the first as told (a split camera hit), the rest all.
+        const VertexParts part = bounce == 1 ? first : VertexParts{};
+        ctx.draw_vertex(bounce, part.draws());
         // Non-diffuse materials take the general BSDF path; diffuse ones keep the
         // Lambert-only loop below, so a diffuse scene costs what it did before.
         if (it.material < scene_.materials.size()) {
@@ -180,8 +182,7 @@ Vec3f PathIntegrator::walk(Interaction it, Vec3f wo, VertexParts first,
                 // (aov_albedo), looked up already: one texture lookup less per sample.
                 const bool aov_is_base = bounce == 1 && m.bsdf == scenes::BsdfKind::MetallicRoughness;
                 if (!scatter(m, bounce, it, wo, beta, eta_scale, L, ctx,
-                             aov_is_base ? &ctx.aov.albedo : nullptr,
-                             bounce == 1 ? first : VertexParts{}))
+                             aov_is_base ? &ctx.aov.albedo : nullptr, part))
                     break;
                 continue;
             }
@@ -197,7 +198,6 @@ Vec3f PathIntegrator::walk(Interaction it, Vec3f wo, VertexParts first,
         // where both strategies run (diffuse_mis_); at the last vertex light sampling
         // alone carries it.
         const bool mis = diffuse_mis_ && bounce < s_.max_depth;
-        const VertexParts part = bounce == 1 ? first : VertexParts{};
         if (counts(bounce) && part.direct)
             L += beta * (s_.hemisphere ? direct_hemisphere(it, bounce, albedo, ctx)
                                        : direct_lights(it, bounce, albedo, ctx, mis,

@@ -22,7 +22,7 @@ public:
 
     int branches() const override { return s_.split; }
 
-  private:
+private:
     /// What a path vertex does: its direct light, its bounce, and how many bounce samples
     /// the vertex takes in all (the split at the camera hit), which weigh its light
     /// samples against the light its bounce rays find.
@@ -50,8 +50,7 @@ public:
     /// then adds the light it finds (found_light).
     /// bsdf_count: bounce samples the light sample is weighed against (split).
     Vec3f direct_lights(const Interaction& it, int bounce, const Vec3f& albedo,
-                        SampleContext& ctx, bool mis = false,
-                        float bsdf_count = 1.0f) const;
+                        SampleContext& ctx, bool mis, float bsdf_count) const;
     Vec3f direct_hemisphere(const Interaction& it, int bounce, const Vec3f& albedo, SampleContext& ctx) const;
     /// One vertex on a non-diffuse material: direct light through its BSDF (skipped for
     /// delta lobes), then a BSDF-sampled bounce. Updates it, wo, beta; false ends the
