@@ -1,8 +1,8 @@
 // tradeoff: the speed-accuracy study. For each Cornell-box scene, error against a
 // high-sample reference versus wall time, for every knob a user can turn: hemisphere vs
 // light sampling, samples per pixel, samples per light, adaptive tolerance, Russian
-// roulette, the sampler under each roulette, maximum depth, the accelerator, and the
-// triangle test.
+// roulette, the sampler under each roulette, bounce splitting, maximum depth, the
+// accelerator, and the triangle test.
 //
 // Error metric (luminance Y = 0.2126 R + 0.7152 G + 0.0722 B, per pixel):
 //   rel_rmse(region) = sqrt( sum_p (Y_p - Yref_p)^2 / sum_p Yref_p^2 ),  p in region
@@ -69,7 +69,8 @@ struct Config {
     int adaptive_batch = 0;
     float adaptive_tol = 0;
     uint64_t seed = 1;
-    renderer::SamplerKind sampler = renderer::RenderSettings{}.sampler;  // the renderer's default
+    /// The course's independent samples (baseline()); sampler_rr and split set their own.
+    renderer::SamplerKind sampler = renderer::SamplerKind::Independent;
 };
 
 /// Per-pixel luminance, the variance of its mean, and the region masks.
@@ -234,7 +235,7 @@ struct Options {
     std::vector<std::string> scene_paths;
     std::string csv_path, ref_dir = std::string(PT_SOURCE_DIR_BENCH) + "/benchmarks/results/reference";
     std::string lights;  ///< --lights; empty: the scene format's default
-    std::string studies_arg = "spp,sampling,light_samples,adaptive,rr,sampler_rr,max_depth,backend,triangle_test";
+    std::string studies_arg = "spp,sampling,light_samples,adaptive,rr,sampler_rr,split,max_depth,backend,triangle_test";
     int width = 160, height = 120, ref_spp = 4096, threads = 0, repeats = 1;
     bool quick = false;
     std::vector<std::string> studies;  ///< --studies, split
@@ -275,7 +276,8 @@ void finish_options(Options& o) {
 
 /// The study's baseline, which is also how the reference is rendered: light sampling,
 /// one sample per light, depth 100 (Russian roulette ends paths long before), rr 0.65,
-/// one path per camera sample (no bounce splitting), as the course renders.
+/// one path per camera sample (no bounce splitting), independent samples (Config::sampler),
+/// as the course renders.
 /// Depth 100 makes the reference the converged global illumination, so the max-depth
 /// study can show the bias of truncating paths.
 IntegratorSettings baseline() {
@@ -409,7 +411,8 @@ NoiseFloor noise_floor(const Reference& ref, const std::string& name, const dist
     return f;
 }
 
-/// The sampling studies' points (spp, sampling, light samples, adaptive, rr, max depth).
+/// The sampling studies' points (spp, sampling, light samples, adaptive, rr, sampler and
+/// roulette, split, max depth).
 /// Quick mode keeps one or two points per study.
 void add_sampling_configs(std::vector<Config>& configs, const Options& o, const IntegratorSettings& base) {
     const bool quick = o.quick;
@@ -459,6 +462,18 @@ void add_sampling_configs(std::vector<Config>& configs, const Options& o, const 
                     c.is.rr_continue = rr;
                     add(c);
                 }
+    // Bounce splitting (IntegratorSettings::split) on top of the sampler and roulette that
+    // are the renderer's defaults: K = 1 is sampler_rr's "sobol rr=throughput" curve, and
+    // the renderer's default, K = 4, is one of these.
+    if (o.wants("split"))
+        for (const int k : quick ? std::vector<int>{4} : std::vector<int>{2, 4, 8})
+            for (int spp : quick ? std::vector<int>{4} : std::vector<int>{4, 16, 64}) {
+                Config c{"split", fmt::format("sobol rr=throughput split={}", k), double(spp), base, spp};
+                c.sampler = renderer::SamplerKind::Sobol;
+                c.is.rr_continue = IntegratorSettings::kThroughputRoulette;
+                c.is.split = k;
+                add(c);
+            }
     if (o.wants("max_depth"))
         for (int m : quick ? std::vector<int>{1, 5} : std::vector<int>{1, 2, 3, 4, 5, 8, 16, 100}) {
             Config c{"max_depth", quick ? "spp 2" : "spp 64", double(m), base, quick ? 2 : 64};

@@ -3,8 +3,9 @@
 
   tables.py accel ACCEL_CSV > accel_table.md
   tables.py tradeoff TRADEOFF_CSV > tradeoff_table.md
-  tables.py sampler_rr TRADEOFF_CSV   tradeoff's sampler_rr study: every sampler under
-                                  both roulettes, efficiency at 4, 16 and 64 spp
+  tables.py sampler_rr TRADEOFF_CSV   tradeoff's sampler_rr and split studies: every
+                                  sampler under both roulettes, then sobol with the
+                                  camera hit's bounce split, efficiency at 4, 16, 64 spp
   tables.py runs ACCEL_CSV...     the one-thread table over several runs of one command
   tables.py threads ACCEL_CSV...  thread scaling per run, beside the machine probe
   tables.py plugins ACCEL_CSV...  our BVH as a plugin against it compiled in, and the
@@ -116,30 +117,33 @@ def tradeoff(path):
 
 
 def sampler_rr(path):
-    """Every sampler under both roulettes (tradeoff's sampler_rr study): efficiency at 4,
-    16 and 64 spp relative to plain light sampling (independent samples, the course's rr
-    0.65), image and cast shadows, and the image's error and time at 64 spp."""
+    """Every sampler under both roulettes (tradeoff's sampler_rr study), then sobol with
+    the throughput roulette and the camera hit's bounce split K ways (its split study):
+    efficiency at 4, 16 and 64 spp relative to plain light sampling (independent samples,
+    the course's rr 0.65), image and cast shadows, and the image's error and time at 64
+    spp."""
     rows, scenes = _tradeoff_rows(path)
     for sc in scenes:
         rs = [r for r in rows if r["scene"] == sc]
         b = _plain_spp_efficiency(rs)
-        pts = [r for r in rs if r["study"] == "sampler_rr"]
+        pts = [r for r in rs if r["study"] in ("sampler_rr", "split")]
         if not b or not pts:
             continue
         print(f"\n#### {sc}\n")
-        print("| sampler | roulette | efficiency, image: 4 / 16 / 64 spp | shadows: 4 / 16 / 64 spp "
+        print("| sampler | roulette | split | efficiency, image: 4 / 16 / 64 spp | shadows: 4 / 16 / 64 spp "
               "| rel RMSE at 64 spp | seconds at 64 spp |")
-        print("|---|---|---|---|---:|---:|")
+        print("|---|---|---:|---|---|---:|---:|")
         for label in OrderedDict.fromkeys(r["label"] for r in pts):
             by = {int(r["spp"]): r for r in pts if r["label"] == label}
-            name, rr = label.split(" rr=")
+            name, rest = label.split(" rr=")
+            rr, _, k = rest.partition(" split=")
 
             def effs(col):
                 return " / ".join(f"{eff(by[n], col) / b[col]:.2f}" if n in by else "-" for n in (4, 16, 64))
 
             r64 = by.get(64)
             at64 = f"{r64['rel_rmse_debiased']:.4f} | {r64['seconds']:.3f}" if r64 else "- | -"
-            print(f"| {name} | {'throughput' if rr == 'throughput' else 'fixed ' + rr} | "
+            print(f"| {name} | {'throughput' if rr == 'throughput' else 'fixed ' + rr} | {k or 1} | "
                   f"{effs('rel_rmse_debiased')} | {effs('rel_rmse_shadow_debiased')} | {at64} |")
 
 
