@@ -19,9 +19,10 @@
 // variance (the reference's per-pixel variance of the mean, summed over the region)
 // from the squared error, so that high-spp points are not flattened by the reference's
 // floor. Under mpirun the points are spread over the ranks (point i on rank i mod N) and
-// the reference is rendered by all of them; rank 0 prints and writes everything, and every
-// error is identical to a single-process run (same seeds, per-sample streams). Wall time is render() alone (all threads unless --threads), scene loading and
-// BVH build excluded; the accelerator comparison also reports build time.
+// the reference is rendered by all of them; rank 0 prints and writes everything, and
+// every error is identical to a single-process run (same seeds, per-sample streams). Wall
+// time is render() alone (all threads unless --threads), scene loading and BVH build
+// excluded; the accelerator comparison also reports build time.
 #include <CLI/CLI.hpp>
 #include <fmt/format.h>
 
@@ -235,7 +236,9 @@ struct Options {
     std::vector<std::string> scene_paths;
     std::string csv_path, ref_dir = std::string(PT_SOURCE_DIR_BENCH) + "/benchmarks/results/reference";
     std::string lights;  ///< --lights; empty: the scene format's default
-    std::string studies_arg = "spp,sampling,light_samples,adaptive,rr,sampler_rr,split,max_depth,backend,triangle_test";
+    std::string studies_arg =
+        "spp,sampling,light_samples,adaptive,rr,sampler_rr,split,max_depth,backend,"
+        "triangle_test";
     int width = 160, height = 120, ref_spp = 4096, threads = 0, repeats = 1;
     bool quick = false;
     std::vector<std::string> studies;  ///< --studies, split
@@ -276,10 +279,9 @@ void finish_options(Options& o) {
 
 /// The study's baseline, which is also how the reference is rendered: light sampling,
 /// one sample per light, depth 100 (Russian roulette ends paths long before), rr 0.65,
-/// one path per camera sample (no bounce splitting), independent samples (Config::sampler),
-/// as the course renders.
-/// Depth 100 makes the reference the converged global illumination, so the max-depth
-/// study can show the bias of truncating paths.
+/// one path per camera sample (no bounce splitting), independent samples
+/// (Config::sampler), as the course renders. Depth 100 makes the reference the converged
+/// global illumination, so the max-depth study can show the bias of truncating paths.
 IntegratorSettings baseline() {
     IntegratorSettings base;
     base.name = "path";
@@ -462,13 +464,14 @@ void add_sampling_configs(std::vector<Config>& configs, const Options& o, const 
                     c.is.rr_continue = rr;
                     add(c);
                 }
-    // Bounce splitting (IntegratorSettings::split) on top of the sampler and roulette that
-    // are the renderer's defaults: K = 1 is sampler_rr's "sobol rr=throughput" curve, and
-    // the renderer's default, K = 4, is one of these.
+    // Bounce splitting (IntegratorSettings::split) on top of the sampler and roulette
+    // that are the renderer's defaults: K = 1 is sampler_rr's "sobol rr=throughput"
+    // curve, and the renderer's default, K = 4, is one of these.
     if (o.wants("split"))
         for (const int k : quick ? std::vector<int>{4} : std::vector<int>{2, 4, 8})
             for (int spp : quick ? std::vector<int>{4} : std::vector<int>{4, 16, 64}) {
-                Config c{"split", fmt::format("sobol rr=throughput split={}", k), double(spp), base, spp};
+                Config c{"split", fmt::format("sobol rr=throughput split={}", k),
+                         double(spp), base, spp};
                 c.sampler = renderer::SamplerKind::Sobol;
                 c.is.rr_continue = IntegratorSettings::kThroughputRoulette;
                 c.is.split = k;
