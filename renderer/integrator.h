@@ -28,6 +28,12 @@ struct AovSample {
 /// What one camera sample may use: the per-thread statistics and its random numbers,
 /// drawn by dimension (the layout is in renderer/sampler.h, dims).
 struct SampleContext {
+    /// Members beyond these keep their own initialisers; vertex_ is left unset (nothing
+    /// reads it before draw_vertex fills it): an aggregate's value-initialisation zeroed
+    /// the whole context, branch sampler included, at every camera sample.
+    SampleContext(const accel::Accelerator& a, accel::TraceStats& s, Rng& r,
+                  AovSample first = {}, const PixelSample* ld = nullptr)
+        : accel(a), stats(s), rng(r), aov(first), sampler(ld) {}
     const accel::Accelerator& accel;
     accel::TraceStats& stats;
     Rng& rng;
@@ -84,7 +90,7 @@ struct SampleContext {
 
     /// draw_vertex's numbers, their first dimension, and the dimensions it drew:
     /// vertex_n_ of them from vertex_lo_ on (none before the first draw).
-    float vertex_[dims::kPerBounce] = {};
+    float vertex_[dims::kPerBounce];
     uint32_t vertex_base_ = 0, vertex_lo_ = 0, vertex_n_ = 0;
 };
 
