@@ -45,8 +45,7 @@ struct SampleContext {
     /// Draws the numbers of path vertex `bounce` (its kPerBounce dimensions) at once, for
     /// the low-discrepancy samplers: the independent hash chains then overlap in the CPU,
     /// where drawing each as the integrator reaches it waits on one chain at a time ("a
-    /// vertex's draws at once" in renderer/README.md). The values are the same either
-    /// way.
+    /// vertex's draws at once" in renderer/README.md). The values are the same either way.
     /// `parts`: only the light or only the bounce numbers, where the vertex uses no other
     /// (a split camera hit: its light sample once, its bounces in the branches); a number
     /// not drawn is computed when read, so the values never depend on it.
