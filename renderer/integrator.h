@@ -72,17 +72,24 @@ struct SampleContext {
     }
 
     /// Bounce splitting (IntegratorSettings::split): branch j of a camera sample draws
-    /// its numbers from the camera hit's bounce on as sample index * split + j of the
-    /// branch sampler, the render's sampler at split times its sample count, so the
-    /// pixel's spp * split branches form one stratified set ("bounce splitting" in
-    /// renderer/README.md). Null for the independent sampler, whose stream just goes on.
+    /// its numbers from the camera hit's bounce on as sample branch_base + j of the
+    /// branch sampler, the render's sampler laid out for all of a pixel's branches, so
+    /// that they form one stratified set ("bounce splitting" in renderer/README.md).
+    /// Null for the independent sampler, whose stream just goes on.
     const Sampler* branch_sampler = nullptr;
+    /// This sample's branches per camera hit (the render's SplitMap, "split by noise" in
+    /// renderer/README.md); 0: the integrator's IntegratorSettings::split.
+    int split = 0;
     int x = 0, y = 0, width = 0;
-    uint32_t index = 0;
-    void begin_branch(uint32_t j, uint32_t split) {
+    /// The branch sampler's index of this sample's first branch: i * K for sample i of a
+    /// uniform split K; under a split map (renderer/split_map.h), p0 * K plus (i - p0)
+    /// times the pixel's own count for the samples after the map's first p0, so that a
+    /// pixel's branches are always one prefix of the branch sampler's sequence.
+    uint32_t branch_base = 0;
+    void begin_branch(uint32_t j) {
         vertex_n_ = 0;
         if (!branch_sampler) return;
-        branch_.emplace(*branch_sampler, x, y, width, index * split + j);
+        branch_.emplace(*branch_sampler, x, y, width, branch_base + j);
         sampler = &*branch_;
     }
     std::optional<PixelSample> branch_{};
@@ -117,6 +124,10 @@ struct IntegratorSettings {
     /// Kirk 1990, splitting): indirect light, most of a diffuse image's noise, gets split
     /// times the samples without as many camera rays.
     int split = 4;
+    /// --split-by: noise (default) sizes each pixel's split in proportion to its relative
+    /// noise in its first samples, split on average (renderer/split_map.h); uniform gives
+    /// every pixel split.
+    bool split_by_noise = true;
     /// --offset: how secondary rays leave surfaces (renderer/spawn.h). ErrorBound offsets
     /// by the hit point's floating-point error bound (pbrt-v4 6.8); Epsilon is the plain
     /// scale-relative epsilon, kept for comparison.
@@ -144,6 +155,9 @@ public:
     /// Branches per camera sample (IntegratorSettings::split): the render draws their
     /// numbers from a sampler of this many times its sample count.
     virtual int branches() const { return 1; }
+    /// Does the render size each pixel's branches by its first samples' noise
+    /// (renderer/split_map.h)? Only where branches() > 1.
+    virtual bool splits_by_noise() const { return false; }
 };
 
 /// Throws std::invalid_argument naming the integrator when it is unknown or unavailable.

@@ -14,6 +14,8 @@
 #include <optional>
 #include <stdexcept>
 
+#include "renderer/split_map.h"
+
 namespace renderer {
 
 namespace {
@@ -101,7 +103,7 @@ void resolve(const Accumulation& acc, RenderResult& result) {
 
 uint64_t film_bytes(int width, int height, bool resume) {
     const uint64_t pixels = uint64_t(std::max(0, width)) * uint64_t(std::max(0, height));
-    return pixels * (sizeof(PixelSums) * (resume ? 2 : 1) + sizeof(float) * kNumChannels);
+    return pixels * (sizeof(PixelSums) * (resume ? 3 : 1) + sizeof(float) * kNumChannels);
 }
 
 RenderResult render(const Camera& camera, const Integrator& integrator,
@@ -135,35 +137,52 @@ RenderResult render(const Camera& camera, const Integrator& integrator,
     const Sampler sampler(s.sampler, s.seed, s.spp, s.width, s.height);
     const bool independent = s.sampler == SamplerKind::Independent;
     const int branches = integrator.branches();
+    // Split by noise (renderer/split_map.h): the first p0 samples of every pixel split
+    // `branches` ways and size the map that the later ones follow.
+    const int p0 =
+        branches > 1 && integrator.splits_by_noise() ? SplitMap::first_samples(s.spp) : 0;
+    SplitMap split_map(branches);
+    // One branch sampler: branch j of sample i of a pixel reads sample i * K + j of it
+    // under a uniform split K; under a map, the pixel's first p0 samples take
+    // [0, p0 * K) and its later ones follow on at their own count (ctx.branch_base), so
+    // that a pixel's branches are one prefix of the sampler's sequence.
+    const int max_k = 2 * branches;
     std::optional<Sampler> branch_sampler;
     if (branches > 1 && !independent)
-        branch_sampler.emplace(sampler.with_spp(s.spp * branches, s.width, s.height));
+        branch_sampler.emplace(
+            sampler.with_spp(p0 * branches + (s.spp - p0) * (p0 > 0 ? max_k : branches),
+                             s.width, s.height));
 
-    stage("rendering");
+    stage(p0 > 0 ? "sizing the split" : "rendering");
     tbb::enumerable_thread_specific<accel::TraceStats> thread_stats;
-    Progress progress(s.progress, num_tiles * size_t(num_passes));
+    Progress progress(s.progress, num_tiles * size_t(num_passes + (p0 > 0 ? 2 : 0)));
     const auto start = Clock::now();
     std::atomic<bool> stopped{false};
     auto cancelled = [&] { return s.cancel && s.cancel->load(std::memory_order_relaxed); };
 
     // Takes pixel (x, y) up to `target` samples; samples are added in index order, so the
     // sums are the same whichever pass, thread or process takes them.
-    auto render_pixel = [&](int x, int y, uint32_t target, accel::TraceStats& stats) {
+    auto render_pixel = [&](int x, int y, uint32_t target, accel::TraceStats& stats,
+                            Accumulation& into) {
         const uint64_t pixel = uint64_t(y) * uint64_t(s.width) + uint64_t(x);
-        PixelSums& q = acc.pixels[pixel];
+        PixelSums& q = into.pixels[pixel];
         if (q.done) return;
         const accel::TraceStats before = stats;
+        // The pixel's split: the render's before sample p0, its map's from then on.
+        const int k_later = split_map.at(x, y);
         while (q.taken < target) {
             Rng rng(s.seed, pixel, q.taken);
             const PixelSample ld(sampler, x, y, s.width, q.taken);
             SampleContext ctx{accel, stats, rng, {}, independent ? nullptr : &ld};
-            if (branch_sampler) {
-                ctx.branch_sampler = &*branch_sampler;
-                ctx.x = x;
-                ctx.y = y;
-                ctx.width = s.width;
-                ctx.index = q.taken;
-            }
+            const bool first = q.taken < uint32_t(p0);
+            ctx.split = first ? branches : k_later;
+            ctx.branch_base = first ? q.taken * uint32_t(branches)
+                                    : uint32_t(p0 * branches) +
+                                          (q.taken - uint32_t(p0)) * uint32_t(k_later);
+            if (branch_sampler) ctx.branch_sampler = &*branch_sampler;
+            ctx.x = x;
+            ctx.y = y;
+            ctx.width = s.width;
             // One sample sits at the pixel centre (as the course does); more are spread
             // inside the pixel.
             Vec2f j{0.5f, 0.5f};
@@ -206,7 +225,7 @@ RenderResult render(const Camera& camera, const Integrator& integrator,
         q.tests += stats.prim_tests - before.prim_tests;
     };
 
-    auto render_tile = [&](size_t tile_index, uint32_t target) {
+    auto render_tile = [&](size_t tile_index, uint32_t target, Accumulation& into) {
         if (cancelled()) return;
         accel::TraceStats& stats = thread_stats.local();
         const uint64_t rays_before = stats.total_rays();
@@ -218,7 +237,7 @@ RenderResult render(const Camera& camera, const Integrator& integrator,
                 stopped = true;
                 return;
             }
-            for (int x = r.x; x < r.x + r.w; ++x) render_pixel(x, y, target, stats);
+            for (int x = r.x; x < r.x + r.w; ++x) render_pixel(x, y, target, stats, into);
         }
         progress.tile_done(stats.total_rays() - rays_before);
     };
@@ -226,6 +245,48 @@ RenderResult render(const Camera& camera, const Integrator& integrator,
     const int threads = s.threads > 0 ? s.threads : tbb::info::default_concurrency();
     tbb::task_arena arena(threads);
     double last_checkpoint = 0.0;
+    if (p0 > 0) {
+        // The first p0 samples of every pixel of the cell, then the map. A resumed
+        // state's sums mix all of its samples, so its first samples are drawn again,
+        // apart (the same numbers, so the same map). Under MPI every rank takes them for
+        // the whole cell, so that each has the map; a tile's owner keeps its own,
+        // identical, sums.
+        const bool fresh = std::none_of(acc.pixels.begin(), acc.pixels.end(),
+                                        [](const PixelSums& q) { return q.taken > 0; });
+        Accumulation scratch;
+        if (!fresh) {
+            scratch.width = s.width;
+            scratch.height = s.height;
+            scratch.pixels.assign(acc.pixels.size(), PixelSums{});
+        }
+        Accumulation& first = fresh ? acc : scratch;
+        // In two halves, whose difference measures the noise of a mean of stratified
+        // samples (not of one sample: a pixel's edge or its light sample are stratified
+        // across its samples, its branches are one stratified set).
+        std::vector<double> half(size_t(cell.w) * size_t(cell.h) * 3);
+        for (uint32_t target : {uint32_t(p0 / 2), uint32_t(p0)}) {
+            arena.execute([&] {
+                tbb::parallel_for(tbb::blocked_range<size_t>(0, num_tiles, 1),
+                                  [&](const tbb::blocked_range<size_t>& r) {
+                                      for (size_t i = r.begin(); i != r.end(); ++i)
+                                          render_tile(i, target, first);
+                                  });
+            });
+            if (target == uint32_t(p0)) break;
+            for (int y = 0; y < cell.h; ++y)
+                for (int x = 0; x < cell.w; ++x)
+                    for (int c = 0; c < 3; ++c)
+                        half[3 * (size_t(y) * size_t(cell.w) + size_t(x)) + size_t(c)] =
+                            first
+                                .pixels[size_t(cell.y + y) * size_t(s.width) +
+                                        size_t(cell.x + x)]
+                                .rgb[c];
+        }
+        if (cancelled()) stopped = true;
+        if (!stopped)
+            split_map = SplitMap::from_sums(first, half, cell, p0, branches, max_k);
+        stage("rendering");
+    }
     if (s.tiles) {
         // Distributed: every thread pulls tiles until the source runs dry.
         s.tiles->start(acc, grid, [&](size_t t) {
@@ -241,21 +302,22 @@ RenderResult render(const Camera& camera, const Integrator& integrator,
         arena.execute([&] {
             tbb::parallel_for(0, threads, [&](int) {
                 for (long t; !cancelled() && (t = s.tiles->next()) >= 0;) {
-                    render_tile(size_t(t), uint32_t(s.spp));
+                    render_tile(size_t(t), uint32_t(s.spp), acc);
                     s.tiles->done(t);
                 }
             });
         });
         s.tiles->finish();
     }
-    for (int pass = 0; pass < num_passes && !s.tiles; ++pass) {
+    for (int pass = 0; pass < num_passes && !s.tiles && !stopped; ++pass) {
         const auto pass_start = Clock::now();
         const uint32_t target = uint32_t(std::min(s.spp, (pass + 1) * pass_spp));
         arena.execute([&] {
             // Grain 1: tiles are already coarse; dynamic balance matters more.
             tbb::parallel_for(tbb::blocked_range<size_t>(0, num_tiles, 1),
                               [&](const tbb::blocked_range<size_t>& r) {
-                                  for (size_t i = r.begin(); i != r.end(); ++i) render_tile(i, target);
+                                  for (size_t i = r.begin(); i != r.end(); ++i)
+                                      render_tile(i, target, acc);
                               });
         });
         if (cancelled()) stopped = true;
@@ -281,6 +343,7 @@ RenderResult render(const Camera& camera, const Integrator& integrator,
     }
 
     result.seconds = std::chrono::duration<double>(Clock::now() - start).count();
+    result.split_shares = split_map.shares();
     stage("resolving the image");
     resolve(acc, result);
     result.partial = stopped.load();

@@ -8,6 +8,7 @@
 #include <cstdint>
 #include <functional>
 #include <optional>
+#include <utility>
 #include <vector>
 
 #include "accel/accelerator.h"
@@ -105,8 +106,10 @@ struct RenderSettings {
 };
 
 /// Bytes of the film render() allocates for a width x height image: the per-pixel sums
-/// (PixelSums), twice when resuming (the checkpoint read and the state continued from
-/// it), and the resolved image (RenderResult::image), which lives beside the sums.
+/// (PixelSums), three times when resuming (the checkpoint read, the state continued from
+/// it, and the first samples drawn again apart for the split's map,
+/// renderer/split_map.h), and the resolved image (RenderResult::image), which lives
+/// beside the sums.
 uint64_t film_bytes(int width, int height, bool resume);
 
 /// Channel layout of RenderResult::image.
@@ -130,6 +133,9 @@ struct RenderResult {
     int passes = 0;           ///< passes completed in this run
     uint64_t nan_samples = 0; ///< non-finite samples dropped (counted, never averaged)
     Accumulation sums;        ///< the state, for a checkpoint or a gather
+    /// Split by noise (renderer/split_map.h): the share of the pixels whose camera hits
+    /// split, per branch count their later samples take; empty under a uniform split.
+    std::vector<std::pair<int, double>> split_shares;
 };
 
 /// The image channels (see Channel) and the totals of an accumulated state.

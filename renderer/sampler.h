@@ -51,7 +51,8 @@ const char* sampler_name(SamplerKind kind);
 /// splitting (IntegratorSettings::split = K), the pixel, lens and camera-hit light
 /// dimensions are sample i's, and branch j reads the camera hit's lobe, direction and
 /// roulette and every later vertex as sample i * K + j of the same layout, from a sampler
-/// of K times the sample count (SampleContext::begin_branch).
+/// of K times the sample count (SampleContext::begin_branch); under a split map, from
+/// the pixel's first p0 samples on at its own count (SampleContext::branch_base).
 namespace dims {
 inline constexpr uint32_t kPixel = 0;  ///< 2D: position inside the pixel
 inline constexpr uint32_t kLens = 2;   ///< 2D: point on the thin lens

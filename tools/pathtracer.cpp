@@ -33,6 +33,7 @@
 #include "renderer/lights.h"
 #include "renderer/render.h"
 #include "renderer/scene_geometry.h"
+#include "renderer/split_map.h"
 #include "scenes/load.h"
 #include "tools/cli.h"
 #include "tools/distributed/distributed.h"
@@ -178,6 +179,15 @@ void add_scene_options(CLI::App& app, Options& o) {
                    "and its bounce K times, each branch a path of its own; 1 = one path per "
                    "camera sample, as in the course")
         ->check(CLI::Range(1, 64));
+    app.add_option_function<std::string>(
+           "--split-by",
+           [&o](const std::string& v) { o.is.split_by_noise = v == "noise"; },
+           "How --split is shared out: noise (default; from 8 spp on, each pixel's first "
+           "spp/8 samples (4 to 8) split --split ways, and the rest a power of two of ways "
+           "in proportion to the relative noise those showed around the pixel, --split on "
+           "average) | uniform (--split ways everywhere)")
+        ->type_name("noise|uniform")
+        ->check(CLI::IsMember({"noise", "uniform"}));
     app.add_option("--sampler", o.sampler,
                    "Where each sample's random numbers come from: independent (the per-sample PCG32 "
                    "streams of earlier versions) | stratified (jittered strata per dimension) | "
@@ -308,6 +318,9 @@ std::string fingerprint(const CLI::App& app, const std::string& scene_path, int 
     const std::string sampler = app.get_option("--sampler")->as<std::string>();
     if (sampler == "stratified" || sampler == "zsobol" || sampler == "pmj02")
         out += fmt::format("sampler-spp={};", spp);
+    // Split by noise sizes its map from the first samples, whose count follows -s.
+    if (app.get_option("--split-by")->as<std::string>() != "uniform")
+        out += fmt::format("split-first={};", renderer::SplitMap::first_samples(spp));
     return out + fmt::format("scene-fnv1a={:016x};jitter={}", h, spp > 1);
 }
 
@@ -486,6 +499,12 @@ void print_statistics(const renderer::RenderResult& result, const accel::BuildIn
     if (result.nan_samples)
         std::printf("[PathTracer] Dropped %llu NaN/Inf samples (counted in the EXR 'nan' channel)\n",
                     (unsigned long long)result.nan_samples);
+    if (!result.split_shares.empty()) {
+        std::string shares;
+        for (const auto& [k, share] : result.split_shares)
+            shares += fmt::format("{}{} ways {:.1f} %", shares.empty() ? "" : ", ", k, 100.0 * share);
+        std::printf("[PathTracer] Split by noise: later samples split %s of the pixels\n", shares.c_str());
+    }
 }
 
 /// The image, written whole or not at all; an interrupted render is marked partial.

@@ -139,20 +139,22 @@ Vec3f PathIntegrator::li(const accel::Ray& camera_ray, SampleContext& ctx) const
         return reflectance_of(scene_, m, it);
     }
     if (counts(0)) L += lights_.emitted(it, wo);
-    if (s_.split > 1 && s_.max_depth >= 2) return L + split_at_camera_hit(it, wo, ctx);
+    const int split = ctx.split > 0 ? ctx.split : s_.split;
+    if (split > 1 && s_.max_depth >= 2)
+        return L + split_at_camera_hit(it, wo, split, ctx);
     return L + walk(it, wo, VertexParts{}, ctx);
 }
 
 Vec3f PathIntegrator::split_at_camera_hit(const Interaction& it, const Vec3f& wo,
-                                          SampleContext& ctx) const {
-    const float k = float(s_.split);
+                                          int split, SampleContext& ctx) const {
+    const float k = float(split);
     // The camera hit's direct light once, from the camera sample's numbers, each light
     // sample weighed against the k bounce samples; then k branches without it.
     Vec3f L(0.0f);
     if (counts(1)) L = walk(it, wo, VertexParts{true, false, k}, ctx);
     Vec3f branches(0.0f);
-    for (int j = 0; j < s_.split; ++j) {
-        ctx.begin_branch(uint32_t(j), uint32_t(s_.split));
+    for (int j = 0; j < split; ++j) {
+        ctx.begin_branch(uint32_t(j));
         branches += walk(it, wo, VertexParts{false, true, k}, ctx);
     }
     return L + branches / k;

@@ -20,9 +20,10 @@ public:
                    const IntegratorSettings& settings);
     Vec3f li(const accel::Ray& ray, SampleContext& ctx) const override;
 
-    int branches() const override { return s_.split; }
+    int branches() const override { return s_.max_depth >= 2 ? s_.split : 1; }
+    bool splits_by_noise() const override { return s_.split_by_noise; }
 
-private:
+  private:
     /// What a path vertex does: its direct light, its bounce, and how many bounce samples
     /// the vertex takes in all (the split at the camera hit), which weigh its light
     /// samples against the light its bounce rays find.
@@ -41,8 +42,8 @@ private:
     /// `first`: the light it gathers.
     Vec3f walk(Interaction it, Vec3f wo, VertexParts first, SampleContext& ctx) const;
     /// The camera hit's direct light once and its bounce `split` times, the branches
-    /// averaged (IntegratorSettings::split).
-    Vec3f split_at_camera_hit(const Interaction& it, const Vec3f& wo,
+    /// averaged (IntegratorSettings::split, or the pixel's SampleContext::split).
+    Vec3f split_at_camera_hit(const Interaction& it, const Vec3f& wo, int split,
                               SampleContext& ctx) const;
     /// Light arriving at `it` directly from emitters, times the BSDF and cosine.
     /// `bounce`: the vertex's index along the path (1 = first hit), for its dimensions.

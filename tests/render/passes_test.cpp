@@ -4,6 +4,7 @@
 // bit-identical to the uninterrupted one, counters included.
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <cstring>
 #include <filesystem>
 
@@ -27,11 +28,12 @@ struct Cornell {
     std::unique_ptr<accel::Accelerator> accel = build_accelerator("custom", geometry, {}, false);
     std::unique_ptr<Integrator> integrator;
     Camera camera;
-    explicit Cornell(int split = 1) {
+    explicit Cornell(int split = 1, bool split_by_noise = true) {
         IntegratorSettings is;
         is.name = "path";
         is.max_depth = 4;
         is.split = split;
+        is.split_by_noise = split_by_noise;
         integrator = make_integrator(is, scene, geometry, &lights);
         camera = make_camera(scene, CameraMode::Auto, 40, 30).camera;
     }
@@ -51,6 +53,12 @@ const Cornell& world() {
 /// The same box with the camera hit's bounce split three ways (--split 3).
 const Cornell& split_world() {
     static Cornell c(3);
+    return c;
+}
+
+/// The same with every pixel split three ways (--split-by uniform).
+const Cornell& uniform_split_world() {
+    static Cornell c(3, false);
     return c;
 }
 
@@ -211,4 +219,70 @@ TEST(Passes, SplitBranchesGiveTheSameBitsForAnySplitOfTheWork) {
         EXPECT_NE(0, std::memcmp(ra.image.pixels.data(), unsplit.image.pixels.data(),
                                  ra.image.pixels.size() * sizeof(float)));
     }
+}
+
+// Split by noise (renderer/split_map.h): the map comes from every pixel's first samples,
+// so a render resumed from a checkpoint, whose sums mix all its samples, draws them
+// again apart and goes on with the same map, bit for bit.
+TEST(Passes, SplitByNoiseResumesBitIdentical) {
+    RenderSettings full = base(16);
+    full.pass_spp = 4;
+    const RenderResult whole = split_world().render(full);
+    ASSERT_GE(whole.split_shares.size(), 2u) << "the map is not uniform";
+
+    std::atomic<bool> cancel{false};
+    RenderSettings first = full;
+    first.checkpoint_every = 0;
+    first.cancel = &cancel;
+    Accumulation saved;
+    int checkpoints = 0;
+    first.on_checkpoint = [&](const Accumulation& acc, bool) {
+        saved = acc;
+        // After the second pass: the map's first samples are behind, later ones too.
+        if (++checkpoints == 2) cancel = true;
+    };
+    const RenderResult part = split_world().render(first);
+    EXPECT_TRUE(part.partial);
+    EXPECT_EQ(part.samples, 40u * 30u * 8u);
+    RenderSettings rest = full;
+    rest.resume = &saved;
+    rest.threads = 1;
+    expect_same(whole, split_world().render(rest));
+}
+
+// Branch counts that follow the noise change how the image's noise is spread, never
+// what it converges to: region means of the split-by-noise and the uniform render agree
+// within their standard errors (the variance channel), and the two differ.
+TEST(Passes, SplitByNoiseKeepsTheImage) {
+    RenderSettings rs = base(64);
+    const RenderResult noise = split_world().render(rs),
+                       uniform = uniform_split_world().render(rs);
+    ASSERT_GE(noise.split_shares.size(), 2u);
+    EXPECT_TRUE(uniform.split_shares.empty());
+    EXPECT_NE(0, std::memcmp(noise.image.pixels.data(), uniform.image.pixels.data(),
+                             noise.image.pixels.size() * sizeof(float)));
+    int checked = 0;
+    for (int ry = 0; ry < 3; ++ry)
+        for (int rx = 0; rx < 4; ++rx) {
+            double mean[2] = {0, 0}, var[2] = {0, 0};
+            int i = 0;
+            for (const RenderResult* r : {&noise, &uniform}) {
+                for (int y = ry * 10; y < ry * 10 + 10; ++y)
+                    for (int x = rx * 10; x < rx * 10 + 10; ++x) {
+                        const float* p = r->image.at(x, y);
+                        mean[i] +=
+                            (0.2126 * p[kR] + 0.7152 * p[kR + 1] + 0.0722 * p[kR + 2]) /
+                            100.0;
+                        var[i] += double(p[kVariance]) / (100.0 * 100.0);
+                    }
+                ++i;
+            }
+            const double se = std::sqrt(var[0] + var[1]);
+            if (!(se > 0)) continue;
+            ++checked;
+            EXPECT_LT(std::abs(mean[0] - mean[1]), 4.0 * se)
+                << "region " << rx << "," << ry << ": " << mean[0] << " against "
+                << mean[1];
+        }
+    EXPECT_GE(checked, 10);
 }
