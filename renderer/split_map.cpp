@@ -8,25 +8,22 @@ namespace renderer {
 
 namespace {
 
-/// Box filter of a w x h grid (radius r, clamped at the edges), by running along each
-/// axis in double, in a fixed order.
+/// Box filter of a w x h grid (radius r, clamped at the edges), one axis at a time, in
+/// double, in a fixed order.
 std::vector<double> box(const std::vector<double>& in, int w, int h, int r) {
-    std::vector<double> rows(in.size()), out(in.size());
-    for (int y = 0; y < h; ++y)
-        for (int x = 0; x < w; ++x) {
-            double s = 0;
-            const int x0 = std::max(0, x - r), x1 = std::min(w - 1, x + r);
-            for (int i = x0; i <= x1; ++i) s += in[size_t(y) * size_t(w) + size_t(i)];
-            rows[size_t(y) * size_t(w) + size_t(x)] = s / double(x1 - x0 + 1);
-        }
-    for (int y = 0; y < h; ++y)
-        for (int x = 0; x < w; ++x) {
-            double s = 0;
-            const int y0 = std::max(0, y - r), y1 = std::min(h - 1, y + r);
-            for (int j = y0; j <= y1; ++j) s += rows[size_t(j) * size_t(w) + size_t(x)];
-            out[size_t(y) * size_t(w) + size_t(x)] = s / double(y1 - y0 + 1);
-        }
-    return out;
+    // Along x (step 1, n = w) for every row, then along y (step w, n = h) for every column.
+    auto pass = [r](const std::vector<double>& src, int lines, size_t line_step, int n, size_t step) {
+        std::vector<double> out(src.size());
+        for (int l = 0; l < lines; ++l)
+            for (int i = 0; i < n; ++i) {
+                const int i0 = std::max(0, i - r), i1 = std::min(n - 1, i + r);
+                double s = 0;
+                for (int j = i0; j <= i1; ++j) s += src[size_t(l) * line_step + size_t(j) * step];
+                out[size_t(l) * line_step + size_t(i) * step] = s / double(i1 - i0 + 1);
+            }
+        return out;
+    };
+    return pass(pass(in, h, size_t(w), w, 1), w, 1, h, size_t(w));
 }
 
 int pow2_near(double k, int max_k) {

@@ -58,7 +58,7 @@ class SplitMap {
     /// count; empty for a uniform map.
     const std::vector<std::pair<int, double>>& shares() const { return shares_; }
 
-  private:
+private:
     int uniform_ = 1;
     Cell cell_{};
     std::vector<uint8_t> k_;

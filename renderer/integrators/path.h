@@ -23,7 +23,7 @@ public:
     int branches() const override { return s_.max_depth >= 2 ? s_.split : 1; }
     bool splits_by_noise() const override { return s_.split_by_noise; }
 
-  private:
+private:
     /// What a path vertex does: its direct light, its bounce, and how many bounce samples
     /// the vertex takes in all (the split at the camera hit), which weigh its light
     /// samples against the light its bounce rays find.
