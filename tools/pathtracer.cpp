@@ -502,7 +502,8 @@ void print_statistics(const renderer::RenderResult& result, const accel::BuildIn
     if (!result.split_shares.empty()) {
         std::string shares;
         for (const auto& [k, share] : result.split_shares)
-            shares += fmt::format("{}{} ways {:.1f} %", shares.empty() ? "" : ", ", k, 100.0 * share);
+            shares += fmt::format("{}{} way{} {:.1f} %", shares.empty() ? "" : ", ", k, k == 1 ? "" : "s",
+                                  100.0 * share);
         std::printf("[PathTracer] Split by noise: later samples split %s of the pixels\n", shares.c_str());
     }
 }
