@@ -23,7 +23,7 @@
 namespace renderer {
 
 class SplitMap {
-  public:
+public:
     /// Half-width, in pixels, of the window over which the first samples are pooled.
     static constexpr int kRadius = 5;
     /// Renders of fewer samples per pixel keep the uniform split.

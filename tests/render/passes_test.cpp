@@ -8,6 +8,7 @@
 #include <cstring>
 #include <filesystem>
 
+#include "renderer/bsdf/common.h"
 #include "renderer/camera.h"
 #include "renderer/checkpoint.h"
 #include "renderer/integrator.h"
@@ -270,9 +271,7 @@ TEST(Passes, SplitByNoiseKeepsTheImage) {
                 for (int y = ry * 10; y < ry * 10 + 10; ++y)
                     for (int x = rx * 10; x < rx * 10 + 10; ++x) {
                         const float* p = r->image.at(x, y);
-                        mean[i] +=
-                            (0.2126 * p[kR] + 0.7152 * p[kR + 1] + 0.0722 * p[kR + 2]) /
-                            100.0;
+                        mean[i] += bsdf::luminance(Vec3f(p[kR], p[kG], p[kB])) / 100.0;
                         var[i] += double(p[kVariance]) / (100.0 * 100.0);
                     }
                 ++i;
