@@ -466,17 +466,21 @@ void add_sampling_configs(std::vector<Config>& configs, const Options& o, const 
                 }
     // Bounce splitting (IntegratorSettings::split) on top of the sampler and roulette
     // that are the renderer's defaults: K = 1 is sampler_rr's "sobol rr=throughput"
-    // curve, and the renderer's default, K = 4, is one of these.
+    // curve, and the renderer's default, K = 4 sized per pixel by its noise from 8 spp
+    // (renderer/README.md, "split by noise"), is one of these; "uniform" is K = 4 at
+    // every pixel (--split-by uniform), the same rays spread evenly.
     if (o.wants("split"))
         for (const int k : quick ? std::vector<int>{4} : std::vector<int>{2, 4, 8})
-            for (int spp : quick ? std::vector<int>{4} : std::vector<int>{4, 16, 64}) {
-                Config c{"split", fmt::format("sobol rr=throughput split={}", k),
-                         double(spp), base, spp};
-                c.sampler = renderer::SamplerKind::Sobol;
-                c.is.rr_continue = IntegratorSettings::kThroughputRoulette;
-                c.is.split = k;
-                add(c);
-            }
+            for (const bool by_noise : k == 4 && !quick ? std::vector<bool>{true, false} : std::vector<bool>{true})
+                for (int spp : quick ? std::vector<int>{4} : std::vector<int>{4, 16, 64}) {
+                    Config c{"split", fmt::format("sobol rr=throughput split={}{}", k, by_noise ? "" : " uniform"),
+                             double(spp), base, spp};
+                    c.sampler = renderer::SamplerKind::Sobol;
+                    c.is.rr_continue = IntegratorSettings::kThroughputRoulette;
+                    c.is.split = k;
+                    c.is.split_by_noise = by_noise;
+                    add(c);
+                }
     if (o.wants("max_depth"))
         for (int m : quick ? std::vector<int>{1, 5} : std::vector<int>{1, 2, 3, 4, 5, 8, 16, 100}) {
             Config c{"max_depth", quick ? "spp 2" : "spp 64", double(m), base, quick ? 2 : 64};
