@@ -244,6 +244,17 @@ RenderResult render(const Camera& camera, const Integrator& integrator,
 
     const int threads = s.threads > 0 ? s.threads : tbb::info::default_concurrency();
     tbb::task_arena arena(threads);
+    // Every tile of the cell up to `target` samples, into `into`. Grain 1: tiles are
+    // already coarse; dynamic balance matters more.
+    auto render_tiles = [&](uint32_t target, Accumulation& into) {
+        arena.execute([&] {
+            tbb::parallel_for(tbb::blocked_range<size_t>(0, num_tiles, 1),
+                              [&](const tbb::blocked_range<size_t>& r) {
+                                  for (size_t i = r.begin(); i != r.end(); ++i)
+                                      render_tile(i, target, into);
+                              });
+        });
+    };
     double last_checkpoint = 0.0;
     if (p0 > 0) {
         // The first p0 samples of every pixel of the cell, then the map. A resumed
@@ -265,13 +276,7 @@ RenderResult render(const Camera& camera, const Integrator& integrator,
         // across its samples, its branches are one stratified set).
         std::vector<double> half(size_t(cell.w) * size_t(cell.h) * 3);
         for (uint32_t target : {uint32_t(p0 / 2), uint32_t(p0)}) {
-            arena.execute([&] {
-                tbb::parallel_for(tbb::blocked_range<size_t>(0, num_tiles, 1),
-                                  [&](const tbb::blocked_range<size_t>& r) {
-                                      for (size_t i = r.begin(); i != r.end(); ++i)
-                                          render_tile(i, target, first);
-                                  });
-            });
+            render_tiles(target, first);
             if (target == uint32_t(p0)) break;
             for (int y = 0; y < cell.h; ++y)
                 for (int x = 0; x < cell.w; ++x)
@@ -312,14 +317,7 @@ RenderResult render(const Camera& camera, const Integrator& integrator,
     for (int pass = 0; pass < num_passes && !s.tiles && !stopped; ++pass) {
         const auto pass_start = Clock::now();
         const uint32_t target = uint32_t(std::min(s.spp, (pass + 1) * pass_spp));
-        arena.execute([&] {
-            // Grain 1: tiles are already coarse; dynamic balance matters more.
-            tbb::parallel_for(tbb::blocked_range<size_t>(0, num_tiles, 1),
-                              [&](const tbb::blocked_range<size_t>& r) {
-                                  for (size_t i = r.begin(); i != r.end(); ++i)
-                                      render_tile(i, target, acc);
-                              });
-        });
+        render_tiles(target, acc);
         if (cancelled()) stopped = true;
         if (stopped) break;
         ++result.passes;
