@@ -300,6 +300,54 @@ TEST(RoughConductor, VisibleNormalDensityIsNormalisedAndWeightsBounded) {
         }
 }
 
+// The float helpers behind Beckmann's visible-normal sampling against double precision:
+// erfc_as within Abramowitz and Stegun's bound (1.5e-7) and the float rounding of its
+// alternating quintic, Giles's erfinv within a few float ulps into
+// the tails, and the slope inversion lands within its tolerance of u and keeps the order of
+// u (a stratified u stays stratified).
+TEST(Beckmann, FloatSlopeInversionMatchesDoublePrecision) {
+    for (double z = 0; z < 9.0; z += 1e-3)
+        ASSERT_NEAR(erfc_as(float(z), float(std::exp(-z * z))), std::erfc(z), 5e-7) << "erfc at " << z;
+    const auto erfinv_ref = [](double y) {
+        double x = 0;
+        for (int i = 0; i < 100; ++i) {
+            const double step = (std::erf(x) - y) / (2.0 / std::sqrt(double(kPi)) * std::exp(-x * x));
+            x -= step;
+            if (std::abs(step) < 1e-15 * (1 + std::abs(x))) break;
+        }
+        return x;
+    };
+    float worst = 0;
+    for (int i = 1; i < 20000; ++i) {
+        const float y = -1.0f + 2.0f * float(i) / 20000.0f;
+        worst = std::max(worst, float(std::abs(erfinv(y) - erfinv_ref(y)) / std::abs(erfinv_ref(y))));
+    }
+    for (float y : {1e-7f, 0.999f, 0.99999f, 0x1.fffffep-1f, -0x1.fffffep-1f})
+        worst = std::max(worst, float(std::abs(erfinv(y) - erfinv_ref(y)) / std::abs(erfinv_ref(y))));
+    EXPECT_LT(worst, 5e-7f) << "erfinv's largest relative error";
+
+    for (double theta_deg : {0.5, 10.0, 45.0, 70.0, 85.0, 89.9}) {
+        const double t = theta_deg * kPi / 180.0, cot = std::cos(t) / std::sin(t);
+        const double k = 0.5 * cot * std::sqrt(double(kPi));
+        const auto cdf = [&](double x) {
+            return (k * std::erfc(-x) + 0.5 * std::exp(-x * x)) / (k * std::erfc(-cot) + 0.5 * std::exp(-cot * cot));
+        };
+        float prev = -1e30f;
+        for (int i = 0; i <= 4096; ++i) {
+            const float u = float(i) / 4096.0f;
+            float sx, sy;
+            Beckmann::visible_slopes(float(std::cos(t)), float(std::sin(t)), u, u, sx, sy);
+            if (i > 0 && i < 4096) {
+                ASSERT_NEAR(cdf(sx), u, 2.0 * Beckmann::kSlopeTolerance) << "theta " << theta_deg << " u " << u;
+            }
+            ASSERT_GE(sx, prev) << "sx must grow with u: theta " << theta_deg << " u " << u;
+            ASSERT_LE(sx, float(cot)) << "a slope wo cannot see";
+            ASSERT_TRUE(std::isfinite(sy));
+            prev = sx;
+        }
+    }
+}
+
 TEST(MetalRough, ChiSquareFurnaceReciprocity) {
     for (float rough : {0.35f, 0.6f, 0.9f})
         for (float metallic : {0.0f, 1.0f})
