@@ -1,5 +1,7 @@
 #include "renderer/sampler.h"
 
+#include <immintrin.h>
+
 #include <algorithm>
 #include <array>
 #include <cmath>
@@ -65,61 +67,73 @@ namespace {
     return reverse_bits(laine_karras(i, seed));
 }
 
-/// Sobol's second dimension, for the primitive polynomial x + 1 (degree 1, m_1 = 1): its
-/// direction numbers follow from the recurrence m_k = 2 m_{k-1} xor m_{k-1} (Bratley and
-/// Fox 1988), v_k = m_k / 2^k. Together with sobol0 a (0,2)-sequence in base 2.
-struct Sobol1Matrix {
-    std::array<uint32_t, 32> v{};
-    constexpr Sobol1Matrix() {
-        uint32_t m = 1;
-        for (int k = 1; k <= 32; ++k) {
-            if (k > 1) m = (m << 1) ^ m;
-            // m_k < 2^k, so m_k << (32 - k) keeps every bit of v_k = m_k / 2^k.
-            v[size_t(k - 1)] = m << (32 - k);
-        }
-    }
-};
-constexpr Sobol1Matrix kSobol1{};
-
-/// The product of the generator matrix with the index, a byte at a time, bits reversed:
-/// table[b][v] is the XOR of the reversed direction numbers of the set bits of v in byte
-/// b (4 lookups instead of a loop over 32 bits; shuffled indices have their high bits
-/// set). Reversed because an Owen scramble of sobol1(i) starts by reversing it, and bit
-/// reversal commutes with XOR: no reversal per draw.
-struct Sobol1BytesReversed {
-    std::array<std::array<uint32_t, 256>, 4> t{};
-    constexpr Sobol1BytesReversed() {
-        for (size_t b = 0; b < 4; ++b)
-            for (uint32_t v = 0; v < 256; ++v) {
-                uint32_t r = 0;
-                for (size_t k = 0; k < 8; ++k)
-                    if (v >> k & 1u) r ^= reversed(kSobol1.v[8 * b + k]);
-                t[b][v] = r;
-            }
-    }
-    static constexpr uint32_t reversed(uint32_t x) {
-        uint32_t r = 0;
-        for (int k = 0; k < 32; ++k)
-            if (x >> k & 1u) r |= 1u << (31 - k);
-        return r;
-    }
-};
-constexpr Sobol1BytesReversed kSobol1BytesReversed{};
+/// Sobol's second dimension, for the primitive polynomial x + 1: its direction numbers
+/// follow from m_k = 2 m_{k-1} xor m_{k-1}, m_1 = 1 (Bratley and Fox 1988), so m_k's bit j
+/// is C(k-1, j) mod 2 and the generator matrix is Pascal's triangle mod 2; with sobol0
+/// a (0,2)-sequence in base 2. Returned bit-reversed, because an Owen scramble of
+/// sobol1(i) starts by reversing it. By Lucas's theorem, reversed output bit c is the XOR
+/// of the index bits b whose position contains c's as a bit subset (C(b, c) odd iff
+/// c & ~b is 0): a superset-sum (Moebius) transform over the five bits of a bit position,
+/// one shift-and-xor step per bit, with no table, so that it vectorises.
+[[gnu::always_inline]] inline uint32_t sobol1_reversed(uint32_t i) {
+    i ^= (i >> 1) & 0x55555555u;
+    i ^= (i >> 2) & 0x33333333u;
+    i ^= (i >> 4) & 0x0F0F0F0Fu;
+    i ^= (i >> 8) & 0x00FF00FFu;
+    i ^= (i >> 16) & 0x0000FFFFu;
+    return i;
+}
 
 /// Owen-scrambled (sobol0(i), sobol1(i)), each the reversal of laine_karras on the
 /// reversed Sobol value, the two reversals made as one (reverse_halves): x in the low
 /// half.
 [[gnu::always_inline]] inline uint64_t owen_sobol01(uint32_t i, uint32_t seed0,
                                                     uint32_t seed1) {
-    const uint32_t r = kSobol1BytesReversed.t[0][i & 0xFFu] ^ kSobol1BytesReversed.t[1][(i >> 8) & 0xFFu] ^
-                       kSobol1BytesReversed.t[2][(i >> 16) & 0xFFu] ^ kSobol1BytesReversed.t[3][i >> 24];
-    return reverse_halves(uint64_t(laine_karras(r, seed1)) << 32 |
+    return reverse_halves(uint64_t(laine_karras(sobol1_reversed(i), seed1)) << 32 |
                           laine_karras(i, seed0));
 }
 
 [[gnu::always_inline]] inline Vec2f to_unit2(uint64_t xy) {
     return {float(uint32_t(xy) >> 8) * 0x1p-24f,
             float(uint32_t(xy >> 32) >> 8) * 0x1p-24f};
+}
+
+// The same in the eight 32-bit lanes of an AVX2 register, for vertex_draws_avx2; the
+// renderer is built for any x86-64, so these carry their own target and run only where
+// the CPU reports AVX2 (Sampler::use_avx2_draws).
+#define PT_AVX2 __attribute__((target("avx2")))
+
+PT_AVX2 inline __m256i laine_karras8(__m256i x, __m256i seed) {
+    x = _mm256_add_epi32(x, seed);
+    x = _mm256_xor_si256(x, _mm256_mullo_epi32(x, _mm256_set1_epi32(int(0x6c50b47cu))));
+    x = _mm256_xor_si256(x, _mm256_mullo_epi32(x, _mm256_set1_epi32(int(0xb82f1e52u))));
+    x = _mm256_xor_si256(x, _mm256_mullo_epi32(x, _mm256_set1_epi32(int(0xc7afe638u))));
+    x = _mm256_xor_si256(x, _mm256_mullo_epi32(x, _mm256_set1_epi32(int(0x8d22f6e6u))));
+    return x;
+}
+
+/// Bit reversal of each lane: its bytes reversed by one shuffle, then each byte's two
+/// nibbles swapped and reversed by a 16-entry table lookup (pshufb).
+PT_AVX2 inline __m256i reverse_bits8(__m256i v) {
+    const __m256i bytes = _mm256_setr_epi8(3, 2, 1, 0, 7, 6, 5, 4, 11, 10, 9, 8, 15, 14, 13, 12,
+                                           3, 2, 1, 0, 7, 6, 5, 4, 11, 10, 9, 8, 15, 14, 13, 12);
+    const __m256i nibble = _mm256_setr_epi8(0x0, 0x8, 0x4, 0xC, 0x2, 0xA, 0x6, 0xE, 0x1, 0x9, 0x5, 0xD, 0x3,
+                                            0xB, 0x7, 0xF, 0x0, 0x8, 0x4, 0xC, 0x2, 0xA, 0x6, 0xE, 0x1, 0x9,
+                                            0x5, 0xD, 0x3, 0xB, 0x7, 0xF);
+    const __m256i low4 = _mm256_set1_epi8(0x0F);
+    v = _mm256_shuffle_epi8(v, bytes);
+    const __m256i lo = _mm256_shuffle_epi8(nibble, _mm256_and_si256(v, low4));
+    const __m256i hi = _mm256_shuffle_epi8(nibble, _mm256_and_si256(_mm256_srli_epi16(v, 4), low4));
+    return _mm256_or_si256(_mm256_slli_epi16(lo, 4), hi);
+}
+
+/// sobol1_reversed in every lane.
+PT_AVX2 inline __m256i sobol1_reversed8(__m256i i) {
+    i = _mm256_xor_si256(i, _mm256_and_si256(_mm256_srli_epi32(i, 1), _mm256_set1_epi32(0x55555555)));
+    i = _mm256_xor_si256(i, _mm256_and_si256(_mm256_srli_epi32(i, 2), _mm256_set1_epi32(0x33333333)));
+    i = _mm256_xor_si256(i, _mm256_and_si256(_mm256_srli_epi32(i, 4), _mm256_set1_epi32(0x0F0F0F0F)));
+    i = _mm256_xor_si256(i, _mm256_and_si256(_mm256_srli_epi32(i, 8), _mm256_set1_epi32(0x00FF00FF)));
+    return _mm256_xor_si256(i, _mm256_and_si256(_mm256_srli_epi32(i, 16), _mm256_set1_epi32(0x0000FFFF)));
 }
 
 /// A third 32-bit seed from a 64-bit key: the high half of its product with an odd
@@ -332,6 +346,7 @@ std::vector<uint32_t> generate_pmj02(uint32_t n, uint64_t seed) {
 Sampler::Sampler(SamplerKind kind, uint64_t seed, int spp, int width, int height)
     : kind_(kind), seed_(seed) {
     lay_out(spp, width, height);
+    use_avx2_draws(true);
     if (kind_ == SamplerKind::Pmj02) {
         pmj_.reserve(size_t(2) * kPmjSamples * kPmjTables);
         for (uint32_t t = 0; t < kPmjTables; ++t) {
@@ -347,6 +362,8 @@ Sampler::Sampler(SamplerKind kind, uint64_t seed, int spp, int width, int height
         for (uint32_t d = 0; d < dims::kLdDimensions; ++d) zsobol_scramble_[d] = hash3(seed_, kZSobolSalt, d);
     }
 }
+
+void Sampler::use_avx2_draws(bool on) { avx2_ = on && __builtin_cpu_supports("avx2"); }
 
 Sampler Sampler::with_spp(int spp, int width, int height) const {
     Sampler out = *this;
@@ -527,6 +544,8 @@ void PixelSample::vertex_draws(uint32_t base, float* out) const {
         }
         return;
     }
+    if (s_->avx2_ && base + dims::kPerBounce <= dims::kLdDimensions)
+        return vertex_draws_avx2<kLight, kBounce>(base, out);
     // get1d and get2d's sobol draws written out stage by stage (keys, shuffles,
     // scrambles), so the five chains interleave: the same draws as five calls of one
     // inlined helper each, which the compiler leaves one after the other, made a render
@@ -557,6 +576,38 @@ void PixelSample::vertex_draws(uint32_t base, float* out) const {
         out[4] = b.x;
         out[5] = b.y;
     }
+}
+
+// The seven sobol numbers of a vertex in the lanes of one register, in the order of
+// `out`: lane j computes out[j]. Burley's index shuffle runs in every lane (the 2D draws'
+// two lanes shuffle the same index), the second coordinates' lanes then take Sobol's
+// second dimension of their index, and one Owen scramble with each lane's seed finishes
+// all seven: two Laine-Karras hashes and two reversals for the vertex instead of twelve
+// and twelve ("AVX2 draws" in renderer/README.md). The keys stay scalar (AVX2 has no
+// 64-bit multiply). The same bits as the scalar stages above (VertexDrawsAreTheSingleDraws).
+template <bool kLight, bool kBounce>
+PT_AVX2 void PixelSample::vertex_draws_avx2(uint32_t base, float* out) const {
+    // key() for dimensions known to be below kLdDimensions, the table read once.
+    const uint64_t* h = s_->dim_hash_.data() + base;
+    uint64_t k0 = 0, k1 = 0, k3 = 0, k4 = 0, k6 = 0;
+    if constexpr (kLight) k0 = mix64(pixel_key_ ^ h[0]), k1 = mix64(pixel_key_ ^ h[1]);
+    if constexpr (kBounce)
+        k3 = mix64(pixel_key_ ^ h[3]), k4 = mix64(pixel_key_ ^ h[4]), k6 = mix64(pixel_key_ ^ h[6]);
+    const int l0 = int(uint32_t(k0)), l1 = int(uint32_t(k1)), l3 = int(uint32_t(k3)), l4 = int(uint32_t(k4)),
+              l6 = int(uint32_t(k6));
+    const __m256i shuffle_seeds = _mm256_setr_epi32(l0, l1, l1, l3, l4, l4, l6, 0);
+    const __m256i scramble_seeds =
+        _mm256_setr_epi32(int(uint32_t(k0 >> 32)), int(uint32_t(k1 >> 32)), int(third_seed(k1)),
+                          int(uint32_t(k3 >> 32)), int(uint32_t(k4 >> 32)), int(third_seed(k4)),
+                          int(uint32_t(k6 >> 32)), 0);
+    __m256i index = reverse_bits8(laine_karras8(_mm256_set1_epi32(int(reversed_sample_)), shuffle_seeds));
+    index = _mm256_blend_epi32(index, sobol1_reversed8(index), 0x24);  // lanes 2 and 5
+    const __m256i v = reverse_bits8(laine_karras8(index, scramble_seeds));
+    const __m256 u = _mm256_mul_ps(_mm256_cvtepi32_ps(_mm256_srli_epi32(v, 8)), _mm256_set1_ps(0x1p-24f));
+    // Stores only the lanes asked for: out has kPerBounce = 7 floats.
+    const __m256i store = _mm256_setr_epi32(kLight ? -1 : 0, kLight ? -1 : 0, kLight ? -1 : 0, kBounce ? -1 : 0,
+                                            kBounce ? -1 : 0, kBounce ? -1 : 0, kBounce ? -1 : 0, 0);
+    _mm256_maskstore_ps(out, store, u);
 }
 
 }  // namespace renderer

@@ -87,6 +87,11 @@ public:
     /// The same sampler (seed, tables) laid out for another sample count: bounce
     /// splitting's branch sampler (IntegratorSettings::split).
     Sampler with_spp(int spp, int width, int height) const;
+    /// Whether sobol's PixelSample::vertex_draws computes its seven numbers in the lanes
+    /// of one AVX2 register (on by default where the CPU has AVX2) or one by one; the
+    /// numbers are the same bits either way. For tests and A/B measurements.
+    void use_avx2_draws(bool on);
+    bool avx2_draws() const { return avx2_; }
 
 private:
     void lay_out(int spp, int width, int height);
@@ -94,6 +99,7 @@ private:
     SamplerKind kind_;
     uint64_t seed_;
     uint32_t spp_ = 1;
+    bool avx2_ = false;
     int strata_x_ = 1, strata_y_ = 1;  // stratified: spp = strata_x * strata_y
     int log2_spp_ = 0, base4_digits_ = 0;  // zsobol
     /// pmj02: kPmjTables tables of kPmjSamples points, 32-bit fixed point (x, y) pairs.
@@ -132,6 +138,8 @@ public:
 private:
     template <bool kLight, bool kBounce>
     void vertex_draws(uint32_t base, float* out) const;
+    template <bool kLight, bool kBounce>
+    void vertex_draws_avx2(uint32_t base, float* out) const;
     const Sampler* s_;
     uint64_t pixel_key_;  // hash of (seed, pixel), pixel = y * width + x: key()'s per-sample part
     uint64_t morton_;    // zsobol: Morton code of (x, y), shifted above the sample bits

@@ -95,6 +95,12 @@ PathIntegrator::PathIntegrator(const scenes::Scene& scene, const SceneGeometry& 
     const accel::Bounds3f b = scene.bounds();
     scale_ = b.empty() ? 1.0f : accel::max_component(b.diagonal());
     if (s_.name == "direct") s_.max_depth = std::min(s_.max_depth, 1);
+    if (s_.only == "direct") counted_hi_ = 1;
+    if (s_.only == "indirect") counted_lo_ = 2;
+    if (!s_.accumulate) {  // -a off: only the light of exactly max_depth bounces
+        counted_lo_ = std::max(counted_lo_, s_.max_depth);
+        counted_hi_ = std::min(counted_hi_, s_.max_depth);
+    }
     diffuse_mis_ = s_.strategy == IntegratorSettings::Strategy::Mis && lights_.model() == LightModel::Mesh &&
                    !s_.hemisphere;
     for (const scenes::Material& m : scene.materials) {
@@ -106,13 +112,6 @@ PathIntegrator::PathIntegrator(const scenes::Scene& scene, const SceneGeometry& 
 void PathIntegrator::footprint(Interaction& it, bool camera, const Vec3f& dir) const {
     if (!textured_ || it.material >= scene_.materials.size() || !is_textured(scene_.materials[it.material])) return;
     set_texture_footprint(it, s_.pixel_spread, s_.texture_filter, camera, dir);
-}
-
-bool PathIntegrator::counts(int bounce) const {
-    if (!s_.accumulate && bounce != s_.max_depth) return false;
-    if (s_.only == "direct") return bounce <= 1;
-    if (s_.only == "indirect") return bounce >= 2;
-    return true;
 }
 
 Vec3f PathIntegrator::li(const accel::Ray& camera_ray, SampleContext& ctx) const {

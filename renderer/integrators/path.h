@@ -4,6 +4,8 @@
 // `direct` is the same integrator with the depth fixed at 1.
 #pragma once
 
+#include <limits>
+
 #include "renderer/integrator.h"
 #include "renderer/lights.h"
 
@@ -83,8 +85,12 @@ private:
     bool emissive(const accel::Hit& hit) const;
     /// Is the light sample's shadow ray (segment, or ray for infinitely far lights) blocked?
     bool occluded(const Interaction& it, const LightSample& ls, SampleContext& ctx) const;
-    /// Does the light of path length `bounce` (0 = emission seen directly) count?
-    bool counts(int bounce) const;
+    /// Does the light of path length `bounce` (0 = emission seen directly) count? The
+    /// bounces [counted_lo_, counted_hi_] that --only and -a leave, set once: counts runs
+    /// several times per vertex, where comparing --only's string cost 1 % of a render's
+    /// instructions.
+    bool counts(int bounce) const { return bounce >= counted_lo_ && bounce <= counted_hi_; }
+    int counted_lo_ = 0, counted_hi_ = std::numeric_limits<int>::max();
 
     const scenes::Scene& scene_;
     const SceneGeometry& geometry_;

@@ -130,12 +130,18 @@ TEST(Sampler, NumbersArePureFunctionsOfTheirCoordinates) {
 }
 
 // A vertex's numbers drawn at once are the ones drawn one by one, for every vertex of
-// the low-discrepancy layout and sample indices with high bits set.
+// the low-discrepancy layout and sample indices with high bits set, with sobol's AVX2
+// lanes and with its scalar stages.
 TEST(Sampler, VertexDrawsAreTheSingleDraws) {
     for (SamplerKind kind : {SamplerKind::Stratified, SamplerKind::Sobol,
-                             SamplerKind::ZSobol, SamplerKind::Pmj02}) {
-        const Sampler s(kind, 7, 16, 40, 30);
-        for (uint32_t sample : {0u, 5u, 15u, 1000u, 0x8000000Fu}) {
+                             SamplerKind::ZSobol, SamplerKind::Pmj02})
+    for (bool avx2 : {true, false}) {
+        Sampler s(kind, 7, 16, 40, 30);
+        if (__builtin_cpu_supports("avx2")) {
+            ASSERT_TRUE(s.avx2_draws()) << "AVX2 draws are the default where the CPU has AVX2";
+        }
+        s.use_avx2_draws(avx2);
+        for (uint32_t sample : {0u, 5u, 15u, 1000u, 0x8000000Fu, 0xFFFFFFFFu}) {
             const PixelSample ps(s, 39, 17, 40, sample);
             for (int b = 1; b <= dims::kLdBounces; ++b) {
                 const uint32_t d = dims::bounce(b);
