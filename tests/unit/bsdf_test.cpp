@@ -302,9 +302,9 @@ TEST(RoughConductor, VisibleNormalDensityIsNormalisedAndWeightsBounded) {
 
 // The float helpers behind Beckmann's visible-normal sampling against double precision:
 // erfc_as within Abramowitz and Stegun's bound (1.5e-7) and the float rounding of its
-// alternating quintic, Giles's erfinv within a few float ulps into
-// the tails, and the slope inversion lands within its tolerance of u and keeps the order of
-// u (a stratified u stays stratified).
+// alternating quintic, Giles's erfinv within a few float ulps into the tails, and the
+// slope inversion lands within its tolerance of u and keeps the order of u (a
+// stratified u stays stratified).
 TEST(Beckmann, FloatSlopeInversionMatchesDoublePrecision) {
     for (double z = 0; z < 9.0; z += 1e-3)
         ASSERT_NEAR(erfc_as(float(z), float(std::exp(-z * z))), std::erfc(z), 5e-7) << "erfc at " << z;
