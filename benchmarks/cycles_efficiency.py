@@ -21,7 +21,9 @@ Cycles renders are cached in --cycles-dir/SCENE/ (the harness's file names). Ref
 are kept whatever the machine was doing (only their pixels are used); a 16- or 64-spp
 Cycles render whose log shows more than --busy of the CPU taken by other processes
 (the harness's foreign_fraction) is rendered again, so the times compared come from a
-quiet machine. Our renders are made every run. Keep the machine otherwise idle.
+quiet machine. Our renders are made every run. For each scene and spp the renderers take
+turns seed by seed (Cycles, ours, the baseline, then the next seed), so that a drift of
+the host falls on both sides of a ratio. Keep the machine otherwise idle.
 
 Needs the study's packages (not in the quick start):
     apt-get install -y blender python3-numpy python3-openimageio
@@ -146,17 +148,19 @@ def main():
         for label, pt in bins:
             refs[label] = read_rgb(ours(pt, label, scene, a.ref_spp, 99, a, reference=True)[0])
         for spp in a.spp:
-            stats = {}
-            for who in (['cycles'] if cyc else []) + [l for l, _ in bins]:
-                ts, es = [], []
-                for seed in a.seeds:
+            whos = (['cycles'] if cyc else []) + [l for l, _ in bins]
+            ts, es = {w: [] for w in whos}, {w: [] for w in whos}
+            # Seed by seed, each renderer in turn, so that the host's drift falls on both
+            # sides of a ratio alike rather than on one renderer's block of renders.
+            for seed in a.seeds:
+                for who in whos:
                     exr, t = cycles(scene, spp, seed, a) if who == 'cycles' else ours(dict(bins)[who], who, scene, spp,
                                                                                       seed, a)
-                    ts.append(t)
-                    es.append(rel_rmse(read_rgb(exr), refs[who]))
-                # As the harness averages: the mean of each render's efficiency.
-                stats[who] = (float(np.mean(ts)), float(np.mean(es)),
-                              float(np.mean([1.0 / (e * e * t) for e, t in zip(es, ts)])))
+                    ts[who].append(t)
+                    es[who].append(rel_rmse(read_rgb(exr), refs[who]))
+            # As the harness averages: the mean of each render's efficiency.
+            stats = {w: (float(np.mean(ts[w])), float(np.mean(es[w])),
+                         float(np.mean([1.0 / (e * e * t) for e, t in zip(es[w], ts[w])]))) for w in whos}
             c = stats.get('cycles')
             row = f'| {name} | {spp} |' + (f' {c[0]:.2f} | {c[1]:.4f} | {c[2]:.1f} |' if c else '')
             for label, _ in bins:
