@@ -29,14 +29,6 @@ void set_texture_footprint(Interaction& it, const PixelSpread& spread, TextureFi
     it.lod = uv_lod(uv_footprint(it.dpdu, it.dpdv, dpdx, dpdy));
 }
 
-void triangle_point(const Vec3f& p0, const Vec3f& p1, const Vec3f& p2, float u, float v, Vec3f& p,
-                    Vec3f& p_error) {
-    const float b0 = 1.0f - u - v;
-    const Vec3f a = p0 * b0, b = p1 * u, c = p2 * v;
-    p = a + b + c;
-    p_error = (accel::vabs(a) + accel::vabs(b) + accel::vabs(c)) * gamma_bound(7);
-}
-
 void sphere_point(const Vec3f& c, float r, const Vec3f& p_hit, Vec3f& p, Vec3f& p_error) {
     Vec3f q = p_hit - c;  // object space (sphere at the origin)
     const float len = accel::length(q);
@@ -131,22 +123,25 @@ void instanced_triangle(const scenes::Scene& scene, const scenes::Mesh& m, const
 
 }  // namespace
 
-Interaction make_interaction(const scenes::Scene& scene, const SceneGeometry& geometry,
-                             const accel::Ray& ray, const accel::Hit& hit) {
+void make_interaction(const scenes::Scene& scene, const SceneGeometry& geometry, const accel::Ray& ray,
+                      const accel::Hit& hit, Interaction& it) {
+    // Every field is written: those a hit may leave at their defaults first.
+    it.uv = Vec2f{};
+    it.dpdu = it.dpdv = Vec3f(0.0f);
+    it.lod = kNoFootprint;
+    it.filter = TextureFilter::Nearest;
+    it.t = hit.t;
+    it.material = geometry.material(hit.geom_id, hit.prim_id);
     if (hit.inst_id != accel::kInvalidId) {
         // Prototypes hold meshes only (scenes::Prototype), never spheres.
-        Interaction it;
-        it.t = hit.t;
-        it.material = geometry.material(hit.geom_id, hit.prim_id);
+        it.sphere = false;
         instanced_triangle(scene, scene.meshes[geometry.source(hit.geom_id).mesh], hit, it);
-        return it;
+        return;
     }
-    Interaction it;
-    it.t = hit.t;
     it.p = ray.org + ray.dir * hit.t;
+    it.p_error = Vec3f(0.0f);
     it.ng = accel::normalize(hit.ng);
     it.ns = it.ng;
-    it.material = geometry.material(hit.geom_id, hit.prim_id);
     const GeomSource& src = geometry.source(hit.geom_id);
     it.sphere = src.kind == GeomSource::Spheres;
     if (it.sphere) {
@@ -162,11 +157,18 @@ Interaction make_interaction(const scenes::Scene& scene, const SceneGeometry& ge
         const float w0 = 1.0f - hit.u - hit.v;
         if (!m.normals.empty()) {
             Vec3f n = m.normals[idx[0]] * w0 + m.normals[idx[1]] * hit.u + m.normals[idx[2]] * hit.v;
-            float len = accel::length(n);
-            if (len > 0.0f && std::isfinite(len)) it.ns = n / len;
+            // By the reciprocal: one division instead of three, on every hit.
+            const float len = accel::length(n), inv = 1.0f / len;
+            if (len > 0.0f && std::isfinite(len) && std::isfinite(inv)) it.ns = n * inv;
         }
         mesh_uv(scene, m, idx, hit.u, hit.v, it);
     }
+}
+
+Interaction make_interaction(const scenes::Scene& scene, const SceneGeometry& geometry,
+                             const accel::Ray& ray, const accel::Hit& hit) {
+    Interaction it;
+    make_interaction(scene, geometry, ray, hit, it);
     return it;
 }
 

@@ -3,6 +3,7 @@
 
 #include "accel/ray.h"
 #include "renderer/scene_geometry.h"
+#include "renderer/spawn.h"
 #include "renderer/texture.h"
 #include "scenes/scene.h"
 
@@ -63,8 +64,13 @@ void set_texture_footprint(Interaction& it, const PixelSpread& spread, TextureFi
 /// p_error = gamma(7) (|b0 p0| + |b1 p1| + |b2 p2|). Rebuilding p from barycentrics
 /// rather than org + t dir keeps the error independent of the ray's length (t's own
 /// rounding error would otherwise scale with the distance travelled).
-void triangle_point(const Vec3f& p0, const Vec3f& p1, const Vec3f& p2, float u, float v, Vec3f& p,
-                    Vec3f& p_error);
+inline void triangle_point(const Vec3f& p0, const Vec3f& p1, const Vec3f& p2, float u, float v, Vec3f& p,
+                           Vec3f& p_error) {
+    const float b0 = 1.0f - u - v;
+    const Vec3f a = p0 * b0, b = p1 * u, c = p2 * v;
+    p = a + b + c;
+    p_error = (accel::vabs(a) + accel::vabs(b) + accel::vabs(c)) * gamma_bound(7);
+}
 
 /// Hit point re-projected onto the sphere (centre c, radius r), with its error bound:
 /// pbrt-v4 Sphere::InteractionFromIntersection re-projects pHit *= r / |pHit| in object
@@ -100,5 +106,10 @@ struct Placement {
 
 Interaction make_interaction(const scenes::Scene& scene, const SceneGeometry& geometry,
                              const accel::Ray& ray, const accel::Hit& hit);
+/// The same into an existing interaction, every field written: the path's vertex is
+/// overwritten in place, where assigning the returned one cleared a temporary
+/// (`rep stos`) and copied it (together 20 % of make_interaction's time on CBbunny).
+void make_interaction(const scenes::Scene& scene, const SceneGeometry& geometry, const accel::Ray& ray,
+                      const accel::Hit& hit, Interaction& it);
 
 }  // namespace renderer

@@ -428,13 +428,16 @@ bool LightSet::sample(size_t i, const Vec3f& p, const Vec3f& n, float choice, Ve
     // q is a point of the light computed in float with error bound q_err (pbrt-v4 6.8
     // style: gamma(n) times the sum of the magnitudes added).
     // solid_pdf > 0: the point was drawn by direction with that solid-angle density.
-    auto finite_area = [&](const Vec3f& q, const Vec3f& q_err, const Vec3f& nl, float area_pdf, bool two_sided,
+    // area: the light's, whose uniform density is 1 / area. One division per quantity
+    // (wi by a reciprocal, the density as one quotient): divisions were a third of this
+    // function's time on CBbunny ("light sample divisions" in renderer/README.md).
+    auto finite_area = [&](const Vec3f& q, const Vec3f& q_err, const Vec3f& nl, float area, bool two_sided,
                            float solid_pdf = 0.0f) {
         const Vec3f d = q - p;
         const float dist2 = accel::dot(d, d);
         if (!(dist2 > 0)) return false;
         const float dist = std::sqrt(dist2);
-        const Vec3f wi = d / dist;
+        const Vec3f wi = d * (1.0f / dist);
         // The solid-angle pdf needs the cosine with the UNIT direction (course trap).
         float cos_l = -accel::dot(nl, wi);
         if (two_sided) cos_l = std::abs(cos_l);
@@ -445,7 +448,7 @@ bool LightSet::sample(size_t i, const Vec3f& p, const Vec3f& n, float choice, Ve
         out.normal = nl;
         out.wi = wi;
         out.distance = dist;
-        out.pdf = solid_pdf > 0 ? solid_pdf : area_pdf * dist2 / cos_l;
+        out.pdf = solid_pdf > 0 ? solid_pdf : dist2 / (cos_l * area);
         return std::isfinite(out.pdf) && out.pdf > 0;
     };
     switch (l.kind) {
@@ -453,7 +456,7 @@ bool LightSet::sample(size_t i, const Vec3f& p, const Vec3f& n, float choice, Ve
             const Vec3f du = l.edge_u * (u2.x - 0.5f), dv = l.edge_v * (u2.y - 0.5f);
             const Vec3f q = l.position + du + dv;
             const Vec3f err = (accel::vabs(l.position) + accel::vabs(du) + accel::vabs(dv)) * gamma_bound(5);
-            return finite_area(q, err, l.normal, 1.0f / l.area, false);
+            return finite_area(q, err, l.normal, l.area, false);
         }
         case Kind::Mesh: {
             if (l.num_inst) return sample_instanced(l, p, choice, u2, out);
@@ -478,7 +481,7 @@ bool LightSet::sample(size_t i, const Vec3f& p, const Vec3f& n, float choice, Ve
             // gamma(7) as for a hit point (renderer/interaction.cpp), which also covers the
             // rounding of the stored edges e1 = v1 - v0, e2 = v2 - v0.
             const Vec3f err = (accel::vabs(t.v0) + accel::vabs(ea) + accel::vabs(eb)) * gamma_bound(7);
-            if (!finite_area(q, err, t.n, 1.0f / l.area, t.two_sided, solid_pdf)) return false;
+            if (!finite_area(q, err, t.n, l.area, t.two_sided, solid_pdf)) return false;
             if (l.texture != scenes::kNoTexture &&
                 !textured_emission(*scene_, l.texture, scene_->meshes[t.mesh], t.index, a, b, out.radiance))
                 return false;
@@ -490,7 +493,7 @@ bool LightSet::sample(size_t i, const Vec3f& p, const Vec3f& n, float choice, Ve
             const Vec3f r = nl * l.radius;
             // |nl| is 1 only to a few ulps (sqrt, sin, cos): gamma(9) on the radius.
             const Vec3f err = accel::vabs(l.position) * gamma_bound(1) + accel::vabs(r) * gamma_bound(9);
-            return finite_area(l.position + r, err, nl, 1.0f / l.area, true);
+            return finite_area(l.position + r, err, nl, l.area, true);
         }
         case Kind::Point:
         case Kind::Spot: {
@@ -574,7 +577,7 @@ bool LightSet::sample_instanced(const Light& l, const Vec3f& p, float choice, Ve
     const float dist2 = accel::dot(d, d);
     if (!(dist2 > 0)) return false;
     const float dist = std::sqrt(dist2);
-    const Vec3f wi = d / dist;
+    const Vec3f wi = d * (1.0f / dist);
     float cos_l = -accel::dot(w.n, wi);
     if (t.two_sided) cos_l = std::abs(cos_l);
     if (!(cos_l > 0)) return false;

@@ -136,12 +136,41 @@ PT_AVX2 inline __m256i sobol1_reversed8(__m256i i) {
     return _mm256_xor_si256(i, _mm256_and_si256(_mm256_srli_epi32(i, 16), _mm256_set1_epi32(0x0000FFFF)));
 }
 
+/// lowbias32 in every lane.
+PT_AVX2 inline __m256i lowbias32x8(__m256i x) {
+    x = _mm256_xor_si256(x, _mm256_srli_epi32(x, 16));
+    x = _mm256_mullo_epi32(x, _mm256_set1_epi32(0x7feb352d));
+    x = _mm256_xor_si256(x, _mm256_srli_epi32(x, 15));
+    x = _mm256_mullo_epi32(x, _mm256_set1_epi32(int(0x846ca68bu)));
+    return _mm256_xor_si256(x, _mm256_srli_epi32(x, 16));
+}
+
 /// A third 32-bit seed from a 64-bit key: the high half of its product with an odd
 /// constant depends on every bit of the key, at the price of one multiply instead of
 /// another mix64.
 [[gnu::always_inline]] inline uint32_t third_seed(uint64_t k) {
     return uint32_t((k * 0xD6E8FEB86659FD93ull) >> 32);
 }
+
+/// A 32-bit finaliser (lowbias32, Wellons 2018, "Prospecting for hash functions"): two
+/// multiplies, for the seeds of a vertex's numbers ("one key per vertex" in
+/// renderer/README.md).
+[[gnu::always_inline]] inline uint32_t lowbias32(uint32_t x) {
+    x ^= x >> 16;
+    x *= 0x7feb352du;
+    x ^= x >> 15;
+    x *= 0x846ca68bu;
+    return x ^ (x >> 16);
+}
+
+/// Each number of a vertex (its offset from dims::bounce) xors one salt into each half of
+/// the vertex's key. The two coordinates of a 2D draw (offsets 1-2 and 4-5) share a
+/// shuffle salt, since they share the shuffled index; a number's second coordinate takes
+/// the next offset's scramble salt. Lane 7 of the AVX2 form is padding.
+alignas(32) constexpr uint32_t kShuffleSalt[8] = {0x3C6EF372u, 0x1B873593u, 0x1B873593u, 0x5BD1E995u,
+                                                  0x68E31DA4u, 0x68E31DA4u, 0x7FEB352Du, 0u};
+alignas(32) constexpr uint32_t kScrambleSalt[8] = {0x2545F491u, 0x4F1BBCDDu, 0x6A09E667u, 0x510E527Fu,
+                                                   0x1F83D9ABu, 0x5BE0CD19u, 0x243F6A88u, 0x85A308D3u};
 
 /// Fixed point to [0, 1): the top 24 bits, so the result is never 1.
 [[gnu::always_inline]] inline float to_unit(uint32_t v) {
@@ -406,6 +435,24 @@ uint64_t PixelSample::key(uint32_t dim) const {
     return mix64(pixel_key_ ^ inner);
 }
 
+// A path vertex's numbers take their seeds from one key per vertex, each number's two
+// halves of it salted and finalised by lowbias32 (two multiplies), instead of a 64-bit
+// key each: a vertex hashed five keys ("one key per vertex" in renderer/README.md). The
+// camera's numbers (pixel and lens) keep a key per draw.
+void PixelSample::sobol_seeds(uint32_t dim, uint32_t seeds[3]) const {
+    if (dim >= dims::kFirstBounce && dim < dims::kLdDimensions) {
+        const uint32_t j = (dim - dims::kFirstBounce) % dims::kPerBounce;
+        const uint64_t k = mix64(pixel_key_ ^ s_->dim_hash_[dim - j]);
+        const uint32_t lo = uint32_t(k), hi = uint32_t(k >> 32);
+        seeds[0] = lowbias32(lo ^ kShuffleSalt[j]);
+        seeds[1] = lowbias32(hi ^ kScrambleSalt[j]);
+        seeds[2] = lowbias32(hi ^ kScrambleSalt[j + 1]);
+        return;
+    }
+    const uint64_t k = key(dim);
+    seeds[0] = uint32_t(k), seeds[1] = uint32_t(k >> 32), seeds[2] = third_seed(k);
+}
+
 float PixelSample::hashed(uint32_t dim, uint32_t which) const {
     const uint64_t h = mix64(key(dim) ^ sample_hash_[which]);
     return to_unit(uint32_t(h >> 32));
@@ -463,9 +510,9 @@ float PixelSample::get1d(uint32_t dim) const {
             return std::min((float(stratum) + hashed(dim, 0)) / float(s.spp_), 0x1.fffffep-1f);
         }
         case SamplerKind::Sobol: {
-            const uint64_t k = key(dim);
-            const uint32_t i = shuffle_reversed_index(reversed_sample_, uint32_t(k));
-            return to_unit(owen_sobol0(i, uint32_t(k >> 32)));
+            uint32_t seed[3];
+            sobol_seeds(dim, seed);
+            return to_unit(owen_sobol0(shuffle_reversed_index(reversed_sample_, seed[0]), seed[1]));
         }
         case SamplerKind::ZSobol: {
             const uint64_t i = zsobol_index(morton_, s.base4_digits_, s.log2_spp_, dim, s.seed_);
@@ -494,9 +541,9 @@ Vec2f PixelSample::get2d(uint32_t dim) const {
                     std::min((sy + hashed(dim, 1)) / float(s.strata_y_), 0x1.fffffep-1f)};
         }
         case SamplerKind::Sobol: {
-            const uint64_t k = key(dim);
-            const uint32_t i = shuffle_reversed_index(reversed_sample_, uint32_t(k));
-            return to_unit2(owen_sobol01(i, uint32_t(k >> 32), third_seed(k)));
+            uint32_t seed[3];
+            sobol_seeds(dim, seed);
+            return to_unit2(owen_sobol01(shuffle_reversed_index(reversed_sample_, seed[0]), seed[1], seed[2]));
         }
         case SamplerKind::ZSobol: {
             const uint64_t i = zsobol_index(morton_, s.base4_digits_, s.log2_spp_, dim, s.seed_);
@@ -546,33 +593,32 @@ void PixelSample::vertex_draws(uint32_t base, float* out) const {
     }
     if (s_->avx2_ && base + dims::kPerBounce <= dims::kLdDimensions)
         return vertex_draws_avx2<kLight, kBounce>(base, out);
-    // get1d and get2d's sobol draws written out stage by stage (keys, shuffles,
+    // get1d and get2d's sobol draws written out stage by stage (seeds, shuffles,
     // scrambles), so the five chains interleave: the same draws as five calls of one
     // inlined helper each, which the compiler leaves one after the other, made a render
-    // 3-4 % slower.
-    uint64_t k0 = 0, k1 = 0, k3 = 0, k4 = 0, k6 = 0;
-    if constexpr (kLight) k0 = key(base), k1 = key(base + 1);
-    if constexpr (kBounce) k3 = key(base + 3), k4 = key(base + 4), k6 = key(base + 6);
+    // 3-4 % slower. The seeds are sobol_seeds' from the vertex's one key.
+    const uint64_t k = mix64(pixel_key_ ^ s_->dim_hash_[base]);
+    const uint32_t lo = uint32_t(k), hi = uint32_t(k >> 32);
     uint32_t i0 = 0, i1 = 0, i3 = 0, i4 = 0, i6 = 0;
     if constexpr (kLight) {
-        i0 = shuffle_reversed_index(reversed_sample_, uint32_t(k0));
-        i1 = shuffle_reversed_index(reversed_sample_, uint32_t(k1));
+        i0 = shuffle_reversed_index(reversed_sample_, lowbias32(lo ^ kShuffleSalt[0]));
+        i1 = shuffle_reversed_index(reversed_sample_, lowbias32(lo ^ kShuffleSalt[1]));
     }
     if constexpr (kBounce) {
-        i3 = shuffle_reversed_index(reversed_sample_, uint32_t(k3));
-        i4 = shuffle_reversed_index(reversed_sample_, uint32_t(k4));
-        i6 = shuffle_reversed_index(reversed_sample_, uint32_t(k6));
+        i3 = shuffle_reversed_index(reversed_sample_, lowbias32(lo ^ kShuffleSalt[3]));
+        i4 = shuffle_reversed_index(reversed_sample_, lowbias32(lo ^ kShuffleSalt[4]));
+        i6 = shuffle_reversed_index(reversed_sample_, lowbias32(lo ^ kShuffleSalt[6]));
     }
     if constexpr (kLight) {
-        out[0] = to_unit(owen_sobol0(i0, uint32_t(k0 >> 32)));
-        const Vec2f a = to_unit2(owen_sobol01(i1, uint32_t(k1 >> 32), third_seed(k1)));
+        out[0] = to_unit(owen_sobol0(i0, lowbias32(hi ^ kScrambleSalt[0])));
+        const Vec2f a = to_unit2(owen_sobol01(i1, lowbias32(hi ^ kScrambleSalt[1]), lowbias32(hi ^ kScrambleSalt[2])));
         out[1] = a.x;
         out[2] = a.y;
     }
     if constexpr (kBounce) {
-        out[3] = to_unit(owen_sobol0(i3, uint32_t(k3 >> 32)));
-        const Vec2f b = to_unit2(owen_sobol01(i4, uint32_t(k4 >> 32), third_seed(k4)));
-        out[6] = to_unit(owen_sobol0(i6, uint32_t(k6 >> 32)));
+        out[3] = to_unit(owen_sobol0(i3, lowbias32(hi ^ kScrambleSalt[3])));
+        const Vec2f b = to_unit2(owen_sobol01(i4, lowbias32(hi ^ kScrambleSalt[4]), lowbias32(hi ^ kScrambleSalt[5])));
+        out[6] = to_unit(owen_sobol0(i6, lowbias32(hi ^ kScrambleSalt[6])));
         out[4] = b.x;
         out[5] = b.y;
     }
@@ -583,23 +629,19 @@ void PixelSample::vertex_draws(uint32_t base, float* out) const {
 // two lanes shuffle the same index), the second coordinates' lanes then take Sobol's
 // second dimension of their index, and one Owen scramble with each lane's seed finishes
 // all seven: two Laine-Karras hashes and two reversals for the vertex instead of twelve
-// and twelve ("AVX2 draws" in renderer/README.md). The keys stay scalar (AVX2 has no
-// 64-bit multiply). The same bits as the scalar stages above (VertexDrawsAreTheSingleDraws).
+// and twelve ("AVX2 draws" in renderer/README.md). The vertex's key stays scalar (AVX2
+// has no 64-bit multiply); its lanes' seeds do not. The same bits as the scalar stages
+// above (VertexDrawsAreTheSingleDraws).
 template <bool kLight, bool kBounce>
 PT_AVX2 void PixelSample::vertex_draws_avx2(uint32_t base, float* out) const {
-    // key() for dimensions known to be below kLdDimensions, the table read once.
-    const uint64_t* h = s_->dim_hash_.data() + base;
-    uint64_t k0 = 0, k1 = 0, k3 = 0, k4 = 0, k6 = 0;
-    if constexpr (kLight) k0 = mix64(pixel_key_ ^ h[0]), k1 = mix64(pixel_key_ ^ h[1]);
-    if constexpr (kBounce)
-        k3 = mix64(pixel_key_ ^ h[3]), k4 = mix64(pixel_key_ ^ h[4]), k6 = mix64(pixel_key_ ^ h[6]);
-    const int l0 = int(uint32_t(k0)), l1 = int(uint32_t(k1)), l3 = int(uint32_t(k3)), l4 = int(uint32_t(k4)),
-              l6 = int(uint32_t(k6));
-    const __m256i shuffle_seeds = _mm256_setr_epi32(l0, l1, l1, l3, l4, l4, l6, 0);
+    // sobol_seeds of the vertex's numbers: its one key's halves broadcast, salted per lane.
+    const uint64_t k = mix64(pixel_key_ ^ s_->dim_hash_[base]);
+    const __m256i shuffle_seeds =
+        lowbias32x8(_mm256_xor_si256(_mm256_set1_epi32(int(uint32_t(k))),
+                                     _mm256_load_si256(reinterpret_cast<const __m256i*>(kShuffleSalt))));
     const __m256i scramble_seeds =
-        _mm256_setr_epi32(int(uint32_t(k0 >> 32)), int(uint32_t(k1 >> 32)), int(third_seed(k1)),
-                          int(uint32_t(k3 >> 32)), int(uint32_t(k4 >> 32)), int(third_seed(k4)),
-                          int(uint32_t(k6 >> 32)), 0);
+        lowbias32x8(_mm256_xor_si256(_mm256_set1_epi32(int(uint32_t(k >> 32))),
+                                     _mm256_load_si256(reinterpret_cast<const __m256i*>(kScrambleSalt))));
     __m256i index = reverse_bits8(laine_karras8(_mm256_set1_epi32(int(reversed_sample_)), shuffle_seeds));
     index = _mm256_blend_epi32(index, sobol1_reversed8(index), 0x24);  // lanes 2 and 5
     const __m256i v = reverse_bits8(laine_karras8(index, scramble_seeds));

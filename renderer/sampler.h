@@ -148,6 +148,9 @@ private:
     uint32_t reversed_sample_;
     uint64_t sample_hash_[2];  // the sample's part of `hashed`, for its two coordinates
     uint64_t key(uint32_t dim) const;
+    /// A sobol draw's seeds: its index shuffle's, and its first and second coordinate's
+    /// Owen scrambles.
+    void sobol_seeds(uint32_t dim, uint32_t seeds[3]) const;
     float hashed(uint32_t dim, uint32_t which) const;
     static const uint32_t* pmj_point(const Sampler& s, uint32_t dim, uint32_t sample, uint64_t key);
 };

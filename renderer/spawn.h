@@ -125,6 +125,22 @@ inline accel::Ray spawn_ray(const Vec3f& p, const Vec3f& p_err, const Vec3f& ng,
     return r;
 }
 
+/// spawn_ray for a direction of unit length up to rounding (a path's bounce directions):
+/// t_min is then the error box's extent itself, without spawn_t_min's square root and
+/// division, which were a third of a bounce ray's set-up on CBbunny ("unit bounce rays"
+/// in renderer/README.md). The factor 1 + 2^-18 covers a length up to 3.8e-6 below 1
+/// (the boxes' diffuse, mirror, glass and microfacet bounces measured within 1.1e-6).
+inline accel::Ray spawn_unit_ray(const Vec3f& p, const Vec3f& p_err, const Vec3f& ng, const Vec3f& d,
+                                 float scene_scale, OffsetMode mode) {
+    accel::Ray r;
+    r.org = spawn_origin(p, p_err, ng, d, scene_scale, mode);
+    r.dir = d;
+    const float t = (p_err.x + p_err.y + p_err.z) * (1.0f + 0x1p-18f);
+    r.t_min = mode == OffsetMode::ErrorBound && t >= 0.0f && std::isfinite(t) ? t : 0.0f;
+    r.t_max = accel::kInfinity;
+    return r;
+}
+
 /// Relative shortening of every shadow segment (t runs 0..1): pbrt-v4's ShadowEpsilon.
 /// Covers the rounding of t itself in the intersectors, which the point bounds do not,
 /// and, when the target's normal is unknown, part of the grazing approach to the

@@ -333,7 +333,7 @@ bool PathIntegrator::roulette(const Vec3f& beta, float eta_scale, uint32_t d, Sa
 
 bool PathIntegrator::trace_bounce(Interaction& it, const Vec3f& wi, bool goes_on, accel::Hit& hit,
                                   SampleContext& ctx, bool& moved) const {
-    const accel::Ray ray = spawn_ray(it.p, it.p_error, it.ng, wi, scale_, s_.offset);
+    const accel::Ray ray = spawn_unit_ray(it.p, it.p_error, it.ng, wi, scale_, s_.offset);
     // A path that ends here looks only for emission: none to find, no trace (the guard
     // says yes wherever an environment could answer a miss).
     if (!goes_on && !lights_.may_emit_toward(ray)) {
@@ -344,7 +344,7 @@ bool PathIntegrator::trace_bounce(Interaction& it, const Vec3f& wi, bool goes_on
     // A path that ends here needs the hit only if it emits.
     moved = found && (goes_on || emissive(hit));
     if (moved) {
-        it = make_interaction(scene_, geometry_, ray, hit);
+        make_interaction(scene_, geometry_, ray, hit, it);
         if (textured_) footprint(it, false, wi);
     }
     return found;
