@@ -89,7 +89,9 @@ struct SampleContext {
     void begin_branch(uint32_t j) {
         vertex_n_ = 0;
         if (!branch_sampler) return;
-        branch_.emplace(*branch_sampler, x, y, width, branch_base + j);
+        // The camera sample's hash of its pixel carries over (PixelSample::other_sample).
+        const PixelSample next = sampler->other_sample(*branch_sampler, x, y, width, branch_base + j);
+        branch_.emplace(next);
         sampler = &*branch_;
     }
     std::optional<PixelSample> branch_{};

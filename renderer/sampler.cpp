@@ -415,16 +415,35 @@ void Sampler::lay_out(int spp, int width, int height) {
     }
 }
 
+namespace {
+
+uint64_t pixel_key(uint64_t seed, int x, int y, int width) {
+    return mix64(seed ^ mix64(uint64_t(y) * uint64_t(width) + uint64_t(x) + 0x632BE59BD9B4E019ull));
+}
+
+}  // namespace
+
 PixelSample::PixelSample(const Sampler& sampler, int x, int y, int width, uint32_t sample)
+    : PixelSample(sampler, x, y, sample, pixel_key(sampler.seed_, x, y, width)) {}
+
+// The sample's hashes serve `hashed`, every draw of the independent and stratified
+// samplers; the others hash only past their low-discrepancy dimensions, so they compute
+// them there ("branch samples" in renderer/README.md).
+PixelSample::PixelSample(const Sampler& sampler, int x, int y, uint32_t sample, uint64_t key)
     : s_(&sampler),
-      pixel_key_(mix64(sampler.seed_ ^ mix64(uint64_t(y) * uint64_t(width) + uint64_t(x) +
-                                             0x632BE59BD9B4E019ull))),
+      pixel_key_(key),
       morton_(0),
       sample_(sample),
       reversed_sample_(reverse_bits(sample)),
-      sample_hash_{sample_hash(sample, 0), sample_hash(sample, 1)} {
+      hashes_(sampler.kind_ == SamplerKind::Independent || sampler.kind_ == SamplerKind::Stratified) {
+    if (hashes_) sample_hash_[0] = sample_hash(sample, 0), sample_hash_[1] = sample_hash(sample, 1);
     if (sampler.kind_ == SamplerKind::ZSobol)
         morton_ = (morton2(uint32_t(x), uint32_t(y)) << sampler.log2_spp_) | uint64_t(sample);
+}
+
+PixelSample PixelSample::other_sample(const Sampler& sampler, int x, int y, int width, uint32_t sample) const {
+    return PixelSample(sampler, x, y, sample,
+                       sampler.seed_ == s_->seed_ ? pixel_key_ : pixel_key(sampler.seed_, x, y, width));
 }
 
 // A draw's key: the hash of (seed, pixel) made once per sample, combined with the
@@ -454,7 +473,7 @@ void PixelSample::sobol_seeds(uint32_t dim, uint32_t seeds[3]) const {
 }
 
 float PixelSample::hashed(uint32_t dim, uint32_t which) const {
-    const uint64_t h = mix64(key(dim) ^ sample_hash_[which]);
+    const uint64_t h = mix64(key(dim) ^ (hashes_ ? sample_hash_[which] : sample_hash(sample_, which)));
     return to_unit(uint32_t(h >> 32));
 }
 

@@ -126,6 +126,9 @@ enum class VertexDraws : uint8_t { All, Light, Bounce };
 class PixelSample {
 public:
     PixelSample(const Sampler& sampler, int x, int y, int width, uint32_t sample);
+    /// Sample `sample` of `sampler` for the same pixel (x, y), reusing this one's hash of
+    /// (seed, pixel) where the seeds agree: the branches of a split camera sample.
+    PixelSample other_sample(const Sampler& sampler, int x, int y, int width, uint32_t sample) const;
     float get1d(uint32_t dim) const;
     Vec2f get2d(uint32_t dim) const;
     /// The kPerBounce numbers of the path vertex whose dimensions start at `base` (below
@@ -146,6 +149,8 @@ private:
     uint32_t sample_;
     // sample_'s bits reversed, where sobol's index shuffle starts
     uint32_t reversed_sample_;
+    PixelSample(const Sampler& sampler, int x, int y, uint32_t sample, uint64_t pixel_key);
+    bool hashes_;              // sample_hash_ made (the samplers that hash every draw)
     uint64_t sample_hash_[2];  // the sample's part of `hashed`, for its two coordinates
     uint64_t key(uint32_t dim) const;
     /// A sobol draw's seeds: its index shuffle's, and its first and second coordinate's

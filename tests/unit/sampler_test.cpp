@@ -129,6 +129,28 @@ TEST(Sampler, NumbersArePureFunctionsOfTheirCoordinates) {
     }
 }
 
+// A split camera sample's branch (PixelSample::other_sample, which carries the pixel's
+// hash over) draws what a PixelSample made afresh for it draws, in every dimension kind:
+// camera, vertex, past the low-discrepancy ones, and extra light samples; for a sampler
+// of the same seed (the branch sampler) and of another.
+TEST(Sampler, BranchSamplesAreFreshSamples) {
+    for (SamplerKind kind : {SamplerKind::Independent, SamplerKind::Stratified, SamplerKind::Sobol,
+                             SamplerKind::ZSobol, SamplerKind::Pmj02}) {
+        const Sampler s(kind, 11, 16, 40, 30);
+        const Sampler branches = s.with_spp(64, 40, 30), other_seed(kind, 12, 64, 40, 30);
+        const PixelSample camera(s, 7, 21, 40, 5);
+        for (const Sampler* t : {&branches, &other_seed})
+            for (uint32_t j : {0u, 21u, 63u}) {
+                const PixelSample a = camera.other_sample(*t, 7, 21, 40, j), b(*t, 7, 21, 40, j);
+                for (uint32_t d : {0u, 2u, dims::bounce(1), dims::bounce(3) + dims::kRoulette,
+                                   dims::kLdDimensions + 3, dims::extra_light(2, 1)}) {
+                    ASSERT_EQ(a.get1d(d), b.get1d(d)) << sampler_name(kind) << " dimension " << d;
+                    ASSERT_EQ(a.get2d(d + 1), b.get2d(d + 1)) << sampler_name(kind) << " dimension " << d;
+                }
+            }
+    }
+}
+
 // A vertex's numbers drawn at once are the ones drawn one by one, for every vertex of
 // the low-discrepancy layout and sample indices with high bits set, with sobol's AVX2
 // lanes and with its scalar stages.
