@@ -594,7 +594,9 @@ void PixelSample::vertex_draws(uint32_t base, float* out) const {
     static_assert(dims::kLightChoice == 0 && dims::kLightPoint == 1 &&
                   dims::kBsdfLobe == 3 && dims::kBsdfDir == 4 && dims::kRoulette == 6 &&
                   dims::kPerBounce == 7);
-    if (s_->kind_ != SamplerKind::Sobol) {
+    // Other samplers, and vertices past the low-discrepancy dimensions (which get1d
+    // hashes), one number at a time.
+    if (s_->kind_ != SamplerKind::Sobol || base + dims::kPerBounce > dims::kLdDimensions) {
         if constexpr (kLight) {
             out[0] = get1d(base);
             const Vec2f a = get2d(base + 1);
@@ -610,8 +612,7 @@ void PixelSample::vertex_draws(uint32_t base, float* out) const {
         }
         return;
     }
-    if (s_->avx2_ && base + dims::kPerBounce <= dims::kLdDimensions)
-        return vertex_draws_avx2<kLight, kBounce>(base, out);
+    if (s_->avx2_) return vertex_draws_avx2<kLight, kBounce>(base, out);
     // get1d and get2d's sobol draws written out stage by stage (seeds, shuffles,
     // scrambles), so the five chains interleave: the same draws as five calls of one
     // inlined helper each, which the compiler leaves one after the other, made a render

@@ -152,8 +152,8 @@ TEST(Sampler, BranchSamplesAreFreshSamples) {
 }
 
 // A vertex's numbers drawn at once are the ones drawn one by one, for every vertex of
-// the low-discrepancy layout and sample indices with high bits set, with sobol's AVX2
-// lanes and with its scalar stages.
+// the low-discrepancy layout and the first past it, and sample indices with high bits
+// set, with sobol's AVX2 lanes and with its scalar stages.
 TEST(Sampler, VertexDrawsAreTheSingleDraws) {
     for (SamplerKind kind : {SamplerKind::Stratified, SamplerKind::Sobol,
                              SamplerKind::ZSobol, SamplerKind::Pmj02})
@@ -165,7 +165,8 @@ TEST(Sampler, VertexDrawsAreTheSingleDraws) {
         s.use_avx2_draws(avx2);
         for (uint32_t sample : {0u, 5u, 15u, 1000u, 0x8000000Fu, 0xFFFFFFFFu}) {
             const PixelSample ps(s, 39, 17, 40, sample);
-            for (int b = 1; b <= dims::kLdBounces; ++b) {
+            // One vertex past the low-discrepancy layout too, whose numbers are hashed.
+            for (int b = 1; b <= dims::kLdBounces + 1; ++b) {
                 const uint32_t d = dims::bounce(b);
                 float v[dims::kPerBounce];
                 ps.vertex_draws(d, v);
