@@ -434,9 +434,8 @@ PixelSample::PixelSample(const Sampler& sampler, int x, int y, uint32_t sample, 
       pixel_key_(key),
       morton_(0),
       sample_(sample),
-      reversed_sample_(reverse_bits(sample)),
-      hashes_(sampler.kind_ == SamplerKind::Independent || sampler.kind_ == SamplerKind::Stratified) {
-    if (hashes_) sample_hash_[0] = sample_hash(sample, 0), sample_hash_[1] = sample_hash(sample, 1);
+      reversed_sample_(reverse_bits(sample)) {
+    if (hashes_every_draw()) sample_hash_[0] = sample_hash(sample, 0), sample_hash_[1] = sample_hash(sample, 1);
     if (sampler.kind_ == SamplerKind::ZSobol)
         morton_ = (morton2(uint32_t(x), uint32_t(y)) << sampler.log2_spp_) | uint64_t(sample);
 }
@@ -454,6 +453,8 @@ uint64_t PixelSample::key(uint32_t dim) const {
     return mix64(pixel_key_ ^ inner);
 }
 
+uint64_t PixelSample::vertex_key(uint32_t base) const { return mix64(pixel_key_ ^ s_->dim_hash_[base]); }
+
 // A path vertex's numbers take their seeds from one key per vertex, each number's two
 // halves of it salted and finalised by lowbias32 (two multiplies), instead of a 64-bit
 // key each: a vertex hashed five keys ("one key per vertex" in renderer/README.md). The
@@ -461,7 +462,7 @@ uint64_t PixelSample::key(uint32_t dim) const {
 void PixelSample::sobol_seeds(uint32_t dim, uint32_t seeds[3]) const {
     if (dim >= dims::kFirstBounce && dim < dims::kLdDimensions) {
         const uint32_t j = (dim - dims::kFirstBounce) % dims::kPerBounce;
-        const uint64_t k = mix64(pixel_key_ ^ s_->dim_hash_[dim - j]);
+        const uint64_t k = vertex_key(dim - j);
         const uint32_t lo = uint32_t(k), hi = uint32_t(k >> 32);
         seeds[0] = lowbias32(lo ^ kShuffleSalt[j]);
         seeds[1] = lowbias32(hi ^ kScrambleSalt[j]);
@@ -473,7 +474,7 @@ void PixelSample::sobol_seeds(uint32_t dim, uint32_t seeds[3]) const {
 }
 
 float PixelSample::hashed(uint32_t dim, uint32_t which) const {
-    const uint64_t h = mix64(key(dim) ^ (hashes_ ? sample_hash_[which] : sample_hash(sample_, which)));
+    const uint64_t h = mix64(key(dim) ^ (hashes_every_draw() ? sample_hash_[which] : sample_hash(sample_, which)));
     return to_unit(uint32_t(h >> 32));
 }
 
@@ -617,7 +618,7 @@ void PixelSample::vertex_draws(uint32_t base, float* out) const {
     // scrambles), so the five chains interleave: the same draws as five calls of one
     // inlined helper each, which the compiler leaves one after the other, made a render
     // 3-4 % slower. The seeds are sobol_seeds' from the vertex's one key.
-    const uint64_t k = mix64(pixel_key_ ^ s_->dim_hash_[base]);
+    const uint64_t k = vertex_key(base);
     const uint32_t lo = uint32_t(k), hi = uint32_t(k >> 32);
     uint32_t i0 = 0, i1 = 0, i3 = 0, i4 = 0, i6 = 0;
     if constexpr (kLight) {
@@ -655,7 +656,7 @@ void PixelSample::vertex_draws(uint32_t base, float* out) const {
 template <bool kLight, bool kBounce>
 PT_AVX2 void PixelSample::vertex_draws_avx2(uint32_t base, float* out) const {
     // sobol_seeds of the vertex's numbers: its one key's halves broadcast, salted per lane.
-    const uint64_t k = mix64(pixel_key_ ^ s_->dim_hash_[base]);
+    const uint64_t k = vertex_key(base);
     const __m256i shuffle_seeds =
         lowbias32x8(_mm256_xor_si256(_mm256_set1_epi32(int(uint32_t(k))),
                                      _mm256_load_si256(reinterpret_cast<const __m256i*>(kShuffleSalt))));

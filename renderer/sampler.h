@@ -150,9 +150,14 @@ private:
     // sample_'s bits reversed, where sobol's index shuffle starts
     uint32_t reversed_sample_;
     PixelSample(const Sampler& sampler, int x, int y, uint32_t sample, uint64_t pixel_key);
-    bool hashes_;              // sample_hash_ made (the samplers that hash every draw)
+    /// The samplers that hash every draw, for which sample_hash_ is made up front.
+    bool hashes_every_draw() const {
+        return s_->kind_ == SamplerKind::Independent || s_->kind_ == SamplerKind::Stratified;
+    }
     uint64_t sample_hash_[2];  // the sample's part of `hashed`, for its two coordinates
     uint64_t key(uint32_t dim) const;
+    /// The one key of the path vertex whose dimensions start at `base` (sobol_seeds).
+    uint64_t vertex_key(uint32_t base) const;
     /// A sobol draw's seeds: its index shuffle's, and its first and second coordinate's
     /// Owen scrambles.
     void sobol_seeds(uint32_t dim, uint32_t seeds[3]) const;
