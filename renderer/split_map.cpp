@@ -26,9 +26,14 @@ std::vector<double> box(const std::vector<double>& in, int w, int h, int r) {
     return pass(pass(in, h, size_t(w), w, 1), w, 1, h, size_t(w));
 }
 
+/// 2^round(log2 k) for k > sqrt(2), at most 2^7 and max_k; 1 below (and for NaN). The
+/// bisection below asks it of every pixel 66 times, so k is compared with the half powers
+/// 2^(e + 1/2) (sqrt(2) scaled by powers of two, exactly) instead of taking log2 k and
+/// rounding: the same exponent except where log2's rounding meets a half power.
 int pow2_near(double k, int max_k) {
-    if (!(k > std::sqrt(2.0))) return 1;
-    const int e = std::min(int(std::lround(std::log2(k))), 7);
+    constexpr double kSqrt2 = 1.4142135623730951;
+    int e = 0;
+    for (double half_power = kSqrt2; e < 7 && k > half_power; half_power *= 2) ++e;
     return std::min(1 << e, max_k);
 }
 
@@ -89,10 +94,13 @@ SplitMap SplitMap::from_sums(const Accumulation& acc,
     }
     if (!(wmax > 0)) return m;
     const double budget = double(count) * double(mean_k);
+    std::vector<double> split_w;
+    split_w.reserve(count);
+    for (size_t i = 0; i < n; ++i)
+        if (splits[i]) split_w.push_back(w[i]);
     auto spent = [&](double scale) {
         double s = 0;
-        for (size_t i = 0; i < n; ++i)
-            if (splits[i]) s += pow2_near(scale * w[i], max_k);
+        for (const double wi : split_w) s += pow2_near(scale * wi, max_k);
         return s;
     };
     // The scale whose rounded counts spend the budget most nearly: bisection on a log
