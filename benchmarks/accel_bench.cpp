@@ -33,6 +33,7 @@
 #include "renderer/backend_spec.h"
 #include "renderer/camera.h"
 #include "renderer/integrators/normals.h"
+#include "renderer/ray_record.h"
 #include "renderer/raysets.h"
 #include "renderer/render.h"
 #include "renderer/scene_geometry.h"
@@ -211,6 +212,7 @@ struct Options {
     std::vector<int> thread_counts, build_threads;
     std::string isa_arg = "auto", nodes_arg = "auto";
     std::string instancing = "auto";
+    std::string record_path;
     double wait_for_cores = 0;
     // Derived.
     bool pin = true;
@@ -227,7 +229,11 @@ void add_options(CLI::App& app, Options& o) {
     app.add_option("--backends", o.backends_arg,
                    "Backends (default: naive up to 10k triangles, custom:midpoint, custom:sah, embree:high, "
                    "embree:high:count)");
-    app.add_option("--kinds", o.kinds_arg, "Ray kinds (default camera,shadow,diffuse)");
+    app.add_option("--kinds", o.kinds_arg, "Ray kinds (default camera,shadow,diffuse; also random, edge-vertex, "
+                                           "grazing, and render-closest, render-shadow with --ray-record)");
+    app.add_option("--ray-record", o.record_path,
+                   "A render's own rays (pathtracer --record-rays FILE, same scene) for the kinds render-closest "
+                   "(its closest-hit rays) and render-shadow (its any-hit rays), the first --rays of each");
     app.add_option("--rays", o.rays, "Rays per kind (default 200000)");
     app.add_option("--repeats", o.repeats, "Timed repeats; the median is reported (default 3)");
     app.add_option("--build-repeats", o.build_repeats, "Builds per backend; the median time is reported (default 1)");
@@ -529,13 +535,20 @@ void collect_rows(const Study& s, const std::vector<Cell>& cells, Results& res) 
 /// interleaving spreads that drift over all cells instead of biasing whichever was
 /// measured during a busy spell.
 void run_study(const Options& o, const bench::MachineProbe& probe, const scenes::Scene& scene,
-               const std::string& name, const Built& built, renderer::RayKind kind, Results& res) {
+               const std::string& name, const Built& built, renderer::RayKind kind,
+               const renderer::RayRecord* record, Results& res) {
     // What the rays meet: instanced triangles count once per placement.
     const uint64_t tris = scene.world_triangles() + scene.instanced_triangles();
     const accel::Accelerator& gen = *built.accels[std::min<size_t>(built.accels.size() - 1, tris <= 10000 ? 1 : 0)];
     renderer::RaySetOptions ro;
     ro.count = o.rays;
-    const renderer::RaySet set = renderer::make_ray_set(kind, scene, gen, ro);
+    ro.record = record;
+    renderer::RaySet set;
+    try {
+        set = renderer::make_ray_set(kind, scene, gen, ro);
+    } catch (const std::invalid_argument& e) {
+        fail(e.what());
+    }
     const Study s{o, probe, name, tris, kind, built, set};
     std::vector<Cell> cells = make_cells(o, built, kind);
     std::fprintf(stderr, "[accel_bench] %s %s rays: %zu cells x %d rounds\n", name.c_str(),
@@ -575,8 +588,18 @@ void run_scene(const Options& o, const bench::MachineProbe& probe, const std::st
         if (tools::memory::failures() != failures) tools::memory::out_of_memory();
         throw;
     }
+    renderer::RayRecord record;
+    if (!o.record_path.empty()) {
+        tools::memory::set_stage("reading the ray record");
+        try {
+            record = renderer::read_ray_record_for(o.record_path, scene);
+        } catch (const std::invalid_argument& e) {
+            fail(e.what());
+        }
+    }
     tools::memory::set_stage("tracing the rays");
-    for (renderer::RayKind kind : o.kinds) run_study(o, probe, scene, name, built, kind, res);
+    for (renderer::RayKind kind : o.kinds)
+        run_study(o, probe, scene, name, built, kind, o.record_path.empty() ? nullptr : &record, res);
 }
 
 /// The rows as CSV (plot/tables.py reads it by column name), replaced whole.
@@ -605,13 +628,18 @@ void write_csv(const std::string& csv_path, const std::vector<Row>& rows) {
 
 /// The table: one row per (scene, backend, ray kind, threads).
 void print_table(const std::vector<Row>& rows) {
-    int wb = 22, wk = 10;  // backend and kernel columns, widened for long labels (plugins)
-    for (const Row& r : rows) wb = std::max(wb, int(r.backend.size())), wk = std::max(wk, int(r.kernel.size()));
-    std::printf("%-18s %9s %-*s %-*s %-8s %3s %9s %9s %10s %10s %9s %10s %5s\n", "scene", "triangles", wb, "backend",
-                wk, "kernel", "rays", "thr", "Mrays/s", "vs embree", "tests/ray", "nodes/ray", "build ms", "MiB", "cpus");
+    // Backend, kernel and ray-kind columns, widened for long labels (plugins, a render's rays).
+    int wb = 22, wk = 10, wr = 8;
     for (const Row& r : rows)
-        std::printf("%-18s %9llu %-*s %-*s %-8s %3d %9.3f %9.3f %10s %10s %9.1f %10.2f %5.2f\n", r.scene.c_str(),
-                    (unsigned long long)r.triangles, wb, r.backend.c_str(), wk, r.kernel.c_str(), r.kind.c_str(), r.threads,
+        wb = std::max(wb, int(r.backend.size())), wk = std::max(wk, int(r.kernel.size())),
+        wr = std::max(wr, int(r.kind.size()));
+    std::printf("%-18s %9s %-*s %-*s %-*s %3s %9s %9s %10s %10s %9s %10s %5s\n", "scene", "triangles", wb, "backend",
+                wk, "kernel", wr, "rays", "thr", "Mrays/s", "vs embree", "tests/ray", "nodes/ray", "build ms", "MiB",
+                "cpus");
+    for (const Row& r : rows)
+        std::printf("%-18s %9llu %-*s %-*s %-*s %3d %9.3f %9.3f %10s %10s %9.1f %10.2f %5.2f\n", r.scene.c_str(),
+                    (unsigned long long)r.triangles, wb, r.backend.c_str(), wk, r.kernel.c_str(), wr, r.kind.c_str(),
+                    r.threads,
                     r.mrays, r.ratio, r.counts_prims ? fmt::format("{:.2f}", r.tests_per_ray).c_str() : "-",
                     r.counts_nodes ? fmt::format("{:.2f}", r.nodes_per_ray).c_str() : "-", r.build_ms,
                     double(r.bytes) / (1024.0 * 1024.0), r.cpu_util);

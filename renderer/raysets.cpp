@@ -1,6 +1,10 @@
 #include "renderer/raysets.h"
 
+#include <algorithm>
 #include <cmath>
+#include <stdexcept>
+
+#include <fmt/format.h>
 
 #include "renderer/rng.h"
 #include "renderer/sampling.h"
@@ -15,12 +19,15 @@ const char* ray_kind_name(RayKind k) {
         case RayKind::Grazing: return "grazing";
         case RayKind::Shadow: return "shadow";
         case RayKind::Diffuse: return "diffuse";
+        case RayKind::RenderClosest: return "render-closest";
+        case RayKind::RenderShadow: return "render-shadow";
     }
     return "?";
 }
 
 bool parse_ray_kind(const std::string& name, RayKind& kind) {
-    for (RayKind k : kAllRayKinds)
+    for (RayKind k : {RayKind::Camera, RayKind::Random, RayKind::EdgeVertex, RayKind::Grazing, RayKind::Shadow,
+                      RayKind::Diffuse, RayKind::RenderClosest, RayKind::RenderShadow})
         if (name == ray_kind_name(k)) {
             kind = k;
             return true;
@@ -103,6 +110,14 @@ RaySet make_ray_set(RayKind kind, const scenes::Scene& scene, const accel::Accel
                     const RaySetOptions& o) {
     RaySet set;
     set.kind = kind;
+    if (kind == RayKind::RenderClosest || kind == RayKind::RenderShadow) {
+        if (!o.record)
+            throw std::invalid_argument(fmt::format("{} rays come from a ray record (pathtracer --record-rays)",
+                                                    ray_kind_name(kind)));
+        const std::vector<accel::Ray>& rays = kind == RayKind::RenderClosest ? o.record->closest : o.record->any_hit;
+        set.rays.assign(rays.begin(), rays.begin() + std::ptrdiff_t(std::min(o.count, rays.size())));
+        return set;
+    }
     Rng rng(o.seed, 0x5EED0000ull + uint64_t(kind));
     const accel::Bounds3f b = reference.bounds();
     const float scale = scene_scale(b);
@@ -196,6 +211,8 @@ RaySet make_ray_set(RayKind kind, const scenes::Scene& scene, const accel::Accel
                 push(p.p + p.n * eps, d);
             }
             break;
+        case RayKind::RenderClosest:
+        case RayKind::RenderShadow: break;  // read from the record above
     }
     return set;
 }

@@ -8,11 +8,14 @@
 
 #include "accel/accelerator.h"
 #include "renderer/camera.h"
+#include "renderer/ray_record.h"
 #include "scenes/scene.h"
 
 namespace renderer {
 
-enum class RayKind : uint8_t { Camera, Random, EdgeVertex, Grazing, Shadow, Diffuse };
+/// RenderClosest and RenderShadow are a render's own rays, read from a ray record
+/// (renderer/ray_record.h) rather than generated; they are not among kAllRayKinds.
+enum class RayKind : uint8_t { Camera, Random, EdgeVertex, Grazing, Shadow, Diffuse, RenderClosest, RenderShadow };
 inline constexpr RayKind kAllRayKinds[] = {RayKind::Camera,  RayKind::Random, RayKind::EdgeVertex,
                                            RayKind::Grazing, RayKind::Shadow, RayKind::Diffuse};
 const char* ray_kind_name(RayKind kind);
@@ -22,12 +25,14 @@ struct RaySet {
     RayKind kind = RayKind::Camera;
     std::vector<accel::Ray> rays;
     /// Shadow rays are any-hit queries (occluded); all others closest-hit.
-    bool occlusion() const { return kind == RayKind::Shadow; }
+    bool occlusion() const { return kind == RayKind::Shadow || kind == RayKind::RenderShadow; }
 };
 
 struct RaySetOptions {
     uint64_t seed = 1;
     size_t count = 100000;  ///< rays per kind (camera: the nearest W x H grid at 4:3)
+    /// Where RenderClosest and RenderShadow take their rays (the first `count` of each).
+    const RayRecord* record = nullptr;
 };
 
 /// Generates `kind` rays for `scene`. Shadow and Diffuse rays start from surface points

@@ -31,6 +31,7 @@
 #include "renderer/image_module.h"
 #include "renderer/integrator.h"
 #include "renderer/lights.h"
+#include "renderer/ray_record.h"
 #include "renderer/render.h"
 #include "renderer/scene_geometry.h"
 #include "renderer/split_map.h"
@@ -72,6 +73,8 @@ struct Options {
     std::string checkpoint, resume;
     double max_memory_gib = 0;  ///< --max-memory; 0 = this machine's memory
     std::string instancing = "auto";  ///< --instancing: auto | flatten
+    std::string record_rays;          ///< --record-rays FILE
+    uint64_t record_rays_max = 1000000;
 };
 
 /// --accel: the backends built in, and any plugin:PATH[:OPTIONS] (accel::is_backend_name
@@ -139,6 +142,12 @@ void add_accel_options(CLI::App& app, Options& o) {
     app.add_flag("--embree-robust", o.ao.embree_robust, "Embree robust traversal mode");
     app.add_flag("--embree-count", o.ao.embree_count,
                  "Embree counting mode: triangles through our intersector, so tests per ray are counted");
+    app.add_option("--record-rays", o.record_rays,
+                   "Write the rays the render traces to FILE (closest-hit and any-hit, in the order traced; "
+                   "the same file every run with -t 1), for accel_bench and xcheck --ray-record");
+    app.add_option("--record-rays-max", o.record_rays_max,
+                   "Rays of each kind --record-rays keeps, the first traced (default 1000000; 32 bytes each)")
+        ->check(CLI::Range(uint64_t(1), uint64_t(1) << 32));
 }
 
 /// Camera, light semantics, sampling details and what is written besides the image.
@@ -238,6 +247,7 @@ void finish_options(Options& o, const dist::World& world) {
     renderer::RenderSettings& rs = o.rs;
     if (world.size > 1 && (!o.checkpoint.empty() || !o.resume.empty() || rs.time_limit > 0))
         fail("--checkpoint, --resume and --time-limit work in a single process, not under mpirun");
+    if (world.size > 1 && !o.record_rays.empty()) fail("--record-rays works in a single process, not under mpirun");
     if (!o.resolution.empty()) {
         const std::vector<int>& r = o.resolution;
         if (r[0] < 1 || r[1] < 1 || r[0] > 65536 || r[1] > 65536)
@@ -591,6 +601,9 @@ void check_outputs(const Options& o, const dist::World& world) {
     if (!o.checkpoint.empty())
         if (const std::string why = tools::check_writable("--checkpoint", o.checkpoint); !why.empty())
             fail(why);
+    if (!o.record_rays.empty())
+        if (const std::string why = tools::check_writable("--record-rays", o.record_rays); !why.empty())
+            fail(why);
 }
 
 /// Under an address-space limit (ulimit -v) the image libraries' mappings are what the save
@@ -814,12 +827,29 @@ int main(int argc, char** argv) {
     const std::unique_ptr<renderer::TileSource> tiles = dist::make_tile_source(world);
     o.rs.tiles = tiles.get();
     o.rs.on_stage = [](const char* stage) { mem::set_stage(stage); };
+    std::optional<renderer::RayRecorder> recorder;
+    if (!o.record_rays.empty()) recorder.emplace(*accel, o.record_rays_max);
     try {
-        result = renderer::render(cam->camera, *integrator, *accel, o.rs);
+        result = renderer::render(cam->camera, *integrator, recorder ? *recorder : *accel, o.rs);
     } catch (const std::bad_alloc& e) {
         mem::out_of_memory(e);
     } catch (const std::invalid_argument& e) {
         fail(e.what());
+    }
+    if (recorder) {
+        try {
+            mem::set_stage("writing the ray record");
+            const renderer::RayRecord record = recorder->record(renderer::scene_primitives(scene));
+            renderer::write_ray_record(o.record_rays, record);
+            if (!o.quiet)
+                std::printf("[PathTracer] Recorded %zu closest-hit and %zu any-hit rays to %s\n", record.closest.size(),
+                            record.any_hit.size(), o.record_rays.c_str());
+        } catch (const std::bad_alloc& e) {
+            mem::out_of_memory(e);
+        } catch (const std::runtime_error& e) {
+            fail(e.what());
+        }
+        recorder.reset();
     }
     if (!world.root()) {  // rank 0 has gathered this rank's tiles and writes the files
         dist::finalize();

@@ -12,6 +12,7 @@
 
 #include "accel/bvh/bvh.h"
 #include "renderer/backend_spec.h"
+#include "renderer/ray_record.h"
 #include "renderer/raysets.h"
 #include "renderer/scene_geometry.h"
 #include "renderer/xcheck.h"
@@ -25,7 +26,7 @@ namespace {
 
 /// Every option, as CLI11 fills it.
 struct Options {
-    std::string scene_path, backends_arg, reference_arg, kinds_arg, dump_path, replay_path;
+    std::string scene_path, backends_arg, reference_arg, kinds_arg, dump_path, replay_path, record_path;
     size_t rays = 200000;
     uint64_t seed = 1;
     std::string isa_arg = "auto", nodes_arg = "auto";
@@ -42,7 +43,8 @@ void add_options(CLI::App& app, Options& o) {
     app.add_option("--reference", o.reference_arg,
                    "Reference backend (default: naive:watertight up to 10k triangles, else embree:high)");
     app.add_option("--kinds", o.kinds_arg, "Comma-separated ray kinds (default: all): camera,random,"
-                                           "edge-vertex,grazing,shadow,diffuse");
+                                           "edge-vertex,grazing,shadow,diffuse; render-closest,render-shadow "
+                                           "with --ray-record");
     app.add_option("--seed", o.seed, "Seed of the ray sets");
     app.add_option("--isa", o.isa_arg, "Kernel of custom backends that name none: auto | sse2 | avx2 | avx512")
         ->check(CLI::IsMember({"auto", "sse2", "avx2", "avx512"}));
@@ -55,6 +57,8 @@ void add_options(CLI::App& app, Options& o) {
     app.add_option("--dump", o.dump_path, "Write the disagreeing rays to FILE (replayable)");
     app.add_option("--replay", o.replay_path, "Trace the rays of FILE (from --dump) instead of generating rays")
         ->check(CLI::ExistingFile);
+    app.add_option("--ray-record", o.record_path,
+                   "A render's rays (pathtracer --record-rays FILE) for --kinds render-closest,render-shadow");
 }
 
 /// Hex floats: a dumped ray replays bit for bit.
@@ -236,9 +240,18 @@ std::vector<renderer::RaySet> make_sets(const Options& o, const std::vector<rend
     renderer::RaySetOptions ro;
     ro.seed = o.seed;
     ro.count = o.rays;
-    for (renderer::RayKind k : kinds) {
-        std::fprintf(stderr, "[xcheck] generating %zu %s rays\n", o.rays, renderer::ray_kind_name(k));
-        sets.push_back(renderer::make_ray_set(k, scene, ref, ro));
+    renderer::RayRecord record;
+    try {
+        if (!o.record_path.empty()) {
+            record = renderer::read_ray_record_for(o.record_path, scene);
+            ro.record = &record;
+        }
+        for (renderer::RayKind k : kinds) {
+            std::fprintf(stderr, "[xcheck] generating %zu %s rays\n", o.rays, renderer::ray_kind_name(k));
+            sets.push_back(renderer::make_ray_set(k, scene, ref, ro));
+        }
+    } catch (const std::invalid_argument& e) {
+        fail(e.what());
     }
     return sets;
 }
