@@ -8,17 +8,7 @@ PT="$T/pathtracer"; XC="$T/xcheck"; AB="$T/../benchmarks/accel_bench"
 SCENE="$SRC/scenes/cornell.dae"
 TMP=$(mktemp -d); trap 'rm -rf "$TMP"' EXIT
 fails=0; passes=0
-check() {  # check NAME EXPECTED_STATUS PATTERN -- command...
-  local name=$1 want=$2 pattern=$3; shift 4
-  "$@" >"$TMP/out" 2>"$TMP/err"; local got=$?
-  if [ "$got" -ne "$want" ]; then
-    echo "FAIL $name: exit $got, expected $want"; sed 's/^/  | /' "$TMP/err" | tail -5; fails=$((fails+1)); return
-  fi
-  if [ -n "$pattern" ] && ! grep -qE -- "$pattern" "$TMP/out" "$TMP/err"; then
-    echo "FAIL $name: output lacks /$pattern/"; sed 's/^/  | /' "$TMP/err" | tail -5; fails=$((fails+1)); return
-  fi
-  echo "ok   $name"; passes=$((passes+1))
-}
+. "$(dirname "$0")/check.sh"
 
 render() {  # render OUT.rays [more pathtracer flags]
   local out=$1; shift
