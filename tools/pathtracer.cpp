@@ -647,6 +647,7 @@ void check_film(const Options& o) {
 /// high-water mark) and what is still to come, per primitive and per pixel.
 struct MemoryEstimate {
     uint64_t loaded = 0, loading_peak = 0, build = 0, kept = 0, film = 0, writing = 0, peak = 0;
+    uint64_t record = 0;  ///< --record-rays: its buffers at their fullest and the file's copy
     const char* when = "";  ///< the stage the peak falls in
 };
 
@@ -715,7 +716,10 @@ MemoryEstimate estimate_memory(const Options& o, const renderer::SceneGeometry& 
     const uint64_t image = pixels * sizeof(float) * renderer::kNumChannels;
     e.writing = g_start_resident + kImageLibrariesBytes + image +
                 (renderer::is_float_format(o.output) ? image : pixels * 15);
-    const uint64_t during_build = e.loaded + e.build, during_render = e.loaded + e.kept + e.film;
+    // A full ray record: each kind's buffers grown by doubling (up to twice the rays), then
+    // copied whole for the file.
+    if (!o.record_rays.empty()) e.record = 3 * 2 * o.record_rays_max * sizeof(accel::Ray);
+    const uint64_t during_build = e.loaded + e.build, during_render = e.loaded + e.kept + e.film + e.record;
     e.peak = std::max({e.loading_peak, during_build, during_render, e.writing});
     e.when = e.peak == e.loading_peak ? "loading"
              : e.peak == during_build ? "the build"
@@ -730,10 +734,12 @@ MemoryEstimate estimate_memory(const Options& o, const renderer::SceneGeometry& 
 void check_memory(const Options& o, const MemoryEstimate& e) {
     std::fprintf(stderr,
                  "[PathTracer] Memory estimate: peak %s during %s (scene and set-up %s measured, "
-                 "loading peak %s, BVH %s while building, %s kept, film %s, save %s)\n",
+                 "loading peak %s, BVH %s while building, %s kept, film %s%s, save %s)\n",
                  mem::size_text(e.peak).c_str(), e.when, mem::size_text(e.loaded).c_str(),
                  mem::size_text(e.loading_peak).c_str(), mem::size_text(e.build).c_str(),
-                 mem::size_text(e.kept).c_str(), mem::size_text(e.film).c_str(), mem::size_text(e.writing).c_str());
+                 mem::size_text(e.kept).c_str(), mem::size_text(e.film).c_str(),
+                 e.record ? (", ray record " + mem::size_text(e.record)).c_str() : "",
+                 mem::size_text(e.writing).c_str());
     std::string what;
     uint64_t limit = mem::memory_limit(false, &what);
     if (o.max_memory_gib > 0) {

@@ -24,6 +24,10 @@ render "$TMP/c.rays" --record-rays-max 100
 size=$(stat -c %s "$TMP/c.rays")
 if [ "$size" -eq $((40 + 32 * 200)) ]; then echo "ok   record-rays-max"; passes=$((passes+1))
 else echo "FAIL --record-rays-max 100: $size bytes"; fails=$((fails+1)); fi
+# The memory estimate counts a full record, so an impossible cap is refused before the build.
+check record-too-big 3 "ray record 715.26 GiB" -- \
+  "$PT" -r 32 24 --record-rays "$TMP/big.rays" --record-rays-max 4000000000 --max-memory 1 -f "$TMP/img3.png" "$SCENE"
+grep -q "refused before the build" "$TMP/err" || { echo "FAIL record-too-big was not refused before the build"; fails=$((fails+1)); }
 check unwritable 2 "--record-rays $TMP/no/x.rays: the folder" -- \
   "$PT" -r 32 24 --record-rays "$TMP/no/x.rays" -f "$TMP/img2.png" "$SCENE"
 # Refused before the render: no image either.
