@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <span>
 #include <stdexcept>
 
 #include <fmt/format.h>
@@ -26,12 +27,12 @@ const char* ray_kind_name(RayKind k) {
 }
 
 bool parse_ray_kind(const std::string& name, RayKind& kind) {
-    for (RayKind k : {RayKind::Camera, RayKind::Random, RayKind::EdgeVertex, RayKind::Grazing, RayKind::Shadow,
-                      RayKind::Diffuse, RayKind::RenderClosest, RayKind::RenderShadow})
-        if (name == ray_kind_name(k)) {
-            kind = k;
-            return true;
-        }
+    for (const auto& kinds : {std::span<const RayKind>(kAllRayKinds), std::span<const RayKind>(kRecordedRayKinds)})
+        for (RayKind k : kinds)
+            if (name == ray_kind_name(k)) {
+                kind = k;
+                return true;
+            }
     return false;
 }
 

@@ -18,6 +18,7 @@ namespace renderer {
 enum class RayKind : uint8_t { Camera, Random, EdgeVertex, Grazing, Shadow, Diffuse, RenderClosest, RenderShadow };
 inline constexpr RayKind kAllRayKinds[] = {RayKind::Camera,  RayKind::Random, RayKind::EdgeVertex,
                                            RayKind::Grazing, RayKind::Shadow, RayKind::Diffuse};
+inline constexpr RayKind kRecordedRayKinds[] = {RayKind::RenderClosest, RayKind::RenderShadow};
 const char* ray_kind_name(RayKind kind);
 bool parse_ray_kind(const std::string& name, RayKind& kind);
 
