@@ -313,7 +313,7 @@ std::string sibling(const std::string& path, const std::string& suffix, const st
 std::string fingerprint(const CLI::App& app, const std::string& scene_path, int spp) {
     static const char* kFree[] = {"s", "t", "f", "q", "quiet", "checkpoint", "checkpoint-every",
                                   "resume", "time-limit", "cost", "scene", "ocio-config", "tile", "pass",
-                                  "max-memory"};
+                                  "max-memory", "record-rays", "record-rays-max"};
     std::string out, line;
     std::istringstream lines(app.config_to_str(true, false));
     while (std::getline(lines, line)) {
@@ -321,8 +321,10 @@ std::string fingerprint(const CLI::App& app, const std::string& scene_path, int 
         if (std::find(std::begin(kFree), std::end(kFree), key) == std::end(kFree)) out += line + ";";
     }
     std::ifstream in(scene_path, std::ios::binary);
-    uint64_t h = 1469598103934665603ull;  // FNV-1a of the scene file
-    for (char c; in.get(c);) h = (h ^ uint8_t(c)) * 1099511628211ull;
+    uint64_t h = 1469598103934665603ull;  // FNV-1a of the scene file, read a block at a time
+    std::vector<char> block(1 << 20);
+    while (in.read(block.data(), std::streamsize(block.size())) || in.gcount() > 0)
+        for (std::streamsize i = 0; i < in.gcount(); ++i) h = (h ^ uint8_t(block[size_t(i)])) * 1099511628211ull;
     // Stratified, zsobol and pmj02 lay their samples out for the sample count, so a
     // checkpoint of theirs continues only to the same -s.
     const std::string sampler = app.get_option("--sampler")->as<std::string>();
@@ -820,7 +822,9 @@ int main(int argc, char** argv) {
     renderer::Accumulation resumed;
     try {
         mem::set_stage("reading the checkpoint");
-        setup_checkpoints(o, fingerprint(app, o.scene_path, o.rs.spp), resumed);
+        // The fingerprint reads the whole scene file: only for a checkpoint to write or read.
+        if (!o.resume.empty() || !o.checkpoint.empty())
+            setup_checkpoints(o, fingerprint(app, o.scene_path, o.rs.spp), resumed);
     } catch (const std::bad_alloc& e) {
         mem::out_of_memory(e);
     }
