@@ -1,7 +1,7 @@
 // The rays a render traces, recorded at the backend edge, so that the backends can be
 // timed against each other on those very rays (`pathtracer --record-rays`, `accel_bench
 // --ray-record`). A render's rays are not the generated sets' (renderer/raysets.h): on
-// CBbunny its bounce rays start on the bunny and the walls and cross seven times as many
+// CBbunny its bounce rays start on the bunny and the walls and cross six times as many
 // primitive tests as the generated diffuse set's (benchmarks/RESULTS.md, "What bounds the
 // end-to-end ratio").
 #pragma once
