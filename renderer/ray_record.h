@@ -2,8 +2,8 @@
 // timed against each other on those very rays (`pathtracer --record-rays`, `accel_bench
 // --ray-record`). A render's rays are not the generated sets' (renderer/raysets.h): on
 // CBbunny its bounce rays start on the bunny and the walls and cross six times as many
-// primitive tests as the generated diffuse set's (benchmarks/RESULTS.md, "What bounds the
-// end-to-end ratio").
+// primitive tests as the generated diffuse set's (benchmarks/RESULTS.md, "A render's own
+// rays: what bounds the end-to-end ratio").
 #pragma once
 
 #include <atomic>
