@@ -12,6 +12,8 @@
 
 #include <unistd.h>
 
+#include "renderer/whole_file.h"
+
 namespace renderer {
 
 namespace {
@@ -47,25 +49,17 @@ void remove_stale_temporaries(const std::string& path) {
 }  // namespace
 
 void write_checkpoint(const std::string& path, const Accumulation& acc, const std::string& fingerprint) {
-    const std::string tmp = fmt::format("{}.tmp{}", path, ::getpid());
-    std::FILE* f = std::fopen(tmp.c_str(), "wb");
-    if (!f) throw CheckpointError(fmt::format("{}: cannot write checkpoint: {}", tmp, std::strerror(errno)));
     Header h{};
     std::memcpy(h.magic, kMagic, sizeof kMagic);
     h.pixel_bytes = sizeof(PixelSums);
     h.width = acc.width;
     h.height = acc.height;
     h.fingerprint_bytes = uint32_t(fingerprint.size());
-    bool ok = std::fwrite(&h, sizeof h, 1, f) == 1 &&
-              std::fwrite(fingerprint.data(), 1, fingerprint.size(), f) == fingerprint.size() &&
-              std::fwrite(acc.pixels.data(), sizeof(PixelSums), acc.pixels.size(), f) == acc.pixels.size();
-    ok = std::fflush(f) == 0 && ::fsync(::fileno(f)) == 0 && ok;
-    ok = std::fclose(f) == 0 && ok;
-    if (!ok || std::rename(tmp.c_str(), path.c_str()) != 0) {
-        const std::string why = std::strerror(errno);
-        std::remove(tmp.c_str());
-        throw CheckpointError(fmt::format("{}: cannot write checkpoint: {}", path, why));
-    }
+    const std::string error =
+        write_file_whole(path, "checkpoint",
+                         {std::as_bytes(std::span(&h, 1)), std::as_bytes(std::span(fingerprint)),
+                          std::as_bytes(std::span(acc.pixels))});
+    if (!error.empty()) throw CheckpointError(error);
     remove_stale_temporaries(path);
 }
 

@@ -1,16 +1,14 @@
 #include "renderer/ray_record.h"
 
-#include <unistd.h>
-
-#include <cerrno>
 #include <cmath>
-#include <cstdio>
 #include <cstring>
 #include <fstream>
 #include <stdexcept>
 #include <type_traits>
 
 #include <fmt/format.h>
+
+#include "renderer/whole_file.h"
 
 namespace renderer {
 
@@ -81,9 +79,6 @@ RayRecord read_ray_record_for(const std::string& path, const scenes::Scene& scen
 }
 
 void write_ray_record(const std::string& path, const RayRecord& r) {
-    const std::string tmp = fmt::format("{}.tmp{}", path, ::getpid());
-    std::FILE* f = std::fopen(tmp.c_str(), "wb");
-    if (!f) throw std::runtime_error(fmt::format("{}: cannot write ray record: {}", tmp, std::strerror(errno)));
     Header h{};
     std::memcpy(h.magic, kMagic, sizeof kMagic);
     h.version = kVersion;
@@ -91,15 +86,10 @@ void write_ray_record(const std::string& path, const RayRecord& r) {
     h.scene_primitives = r.scene_primitives;
     h.closest = r.closest.size();
     h.any_hit = r.any_hit.size();
-    bool ok = std::fwrite(&h, sizeof h, 1, f) == 1 &&
-              std::fwrite(r.closest.data(), sizeof(accel::Ray), r.closest.size(), f) == r.closest.size() &&
-              std::fwrite(r.any_hit.data(), sizeof(accel::Ray), r.any_hit.size(), f) == r.any_hit.size();
-    ok = std::fclose(f) == 0 && ok;
-    if (!ok || std::rename(tmp.c_str(), path.c_str()) != 0) {
-        const std::string why = std::strerror(errno);
-        std::remove(tmp.c_str());
-        throw std::runtime_error(fmt::format("{}: cannot write ray record: {}", path, why));
-    }
+    const std::string error = write_file_whole(path, "ray record",
+                                               {std::as_bytes(std::span(&h, 1)), std::as_bytes(std::span(r.closest)),
+                                                std::as_bytes(std::span(r.any_hit))});
+    if (!error.empty()) throw std::runtime_error(error);
 }
 
 RayRecorder::RayRecorder(const accel::Accelerator& inner, uint64_t max_per_kind)

@@ -114,15 +114,22 @@ inline float spawn_t_min(const Vec3f& p_err, const Vec3f& d) {
     return len > 0.0f && t >= 0.0f && std::isfinite(t) ? t : 0.0f;
 }
 
-/// Ray from surface point p in direction d, starting on the side d leaves into.
-inline accel::Ray spawn_ray(const Vec3f& p, const Vec3f& p_err, const Vec3f& ng, const Vec3f& d,
-                            float scene_scale, OffsetMode mode) {
+/// The unbounded ray from spawn_origin along d, beginning at t_min.
+inline accel::Ray spawn_from(const Vec3f& p, const Vec3f& p_err, const Vec3f& ng, const Vec3f& d,
+                             float scene_scale, OffsetMode mode, float t_min) {
     accel::Ray r;
     r.org = spawn_origin(p, p_err, ng, d, scene_scale, mode);
     r.dir = d;
-    r.t_min = mode == OffsetMode::ErrorBound ? spawn_t_min(p_err, d) : 0.0f;
+    r.t_min = t_min;
     r.t_max = accel::kInfinity;
     return r;
+}
+
+/// Ray from surface point p in direction d, starting on the side d leaves into.
+inline accel::Ray spawn_ray(const Vec3f& p, const Vec3f& p_err, const Vec3f& ng, const Vec3f& d,
+                            float scene_scale, OffsetMode mode) {
+    return spawn_from(p, p_err, ng, d, scene_scale, mode,
+                      mode == OffsetMode::ErrorBound ? spawn_t_min(p_err, d) : 0.0f);
 }
 
 /// spawn_ray for a direction of unit length up to rounding (a path's bounce directions):
@@ -132,13 +139,9 @@ inline accel::Ray spawn_ray(const Vec3f& p, const Vec3f& p_err, const Vec3f& ng,
 /// (the boxes' diffuse, mirror, glass and microfacet bounces measured within 1.1e-6).
 inline accel::Ray spawn_unit_ray(const Vec3f& p, const Vec3f& p_err, const Vec3f& ng, const Vec3f& d,
                                  float scene_scale, OffsetMode mode) {
-    accel::Ray r;
-    r.org = spawn_origin(p, p_err, ng, d, scene_scale, mode);
-    r.dir = d;
     const float t = (p_err.x + p_err.y + p_err.z) * (1.0f + 0x1p-18f);
-    r.t_min = mode == OffsetMode::ErrorBound && t >= 0.0f && std::isfinite(t) ? t : 0.0f;
-    r.t_max = accel::kInfinity;
-    return r;
+    return spawn_from(p, p_err, ng, d, scene_scale, mode,
+                      mode == OffsetMode::ErrorBound && t >= 0.0f && std::isfinite(t) ? t : 0.0f);
 }
 
 /// Relative shortening of every shadow segment (t runs 0..1): pbrt-v4's ShadowEpsilon.
