@@ -89,23 +89,23 @@ namespace {
 
 bool same_position(const accel::Vec3f& a, const accel::Vec3f& b) { return a == b; }
 
+/// The hit triangle where the hit's placement puts it: a prototype's triangles are in
+/// object space.
+void hit_triangle(const SceneGeometry& g, const RayOutcome& o, accel::Vec3f p[3]) {
+    accel::triangle_vertices(g.views()[o.geom], o.prim, p[0], p[1], p[2]);
+    if (o.inst == accel::kInvalidId) return;
+    const accel::Affine3f& m = g.instances().instances[o.inst].object_to_world;
+    for (int k = 0; k < 3; ++k) p[k] = m.point(p[k]);
+}
+
 /// Do two triangles share a vertex position (and so possibly the edge the ray hit)?
 bool share_vertex(const SceneGeometry& g, const RayOutcome& a, const RayOutcome& b) {
-    const auto& va = g.views()[a.geom];
-    const auto& vb = g.views()[b.geom];
-    if (va.type != accel::GeometryType::Triangles || vb.type != accel::GeometryType::Triangles)
+    if (g.views()[a.geom].type != accel::GeometryType::Triangles ||
+        g.views()[b.geom].type != accel::GeometryType::Triangles)
         return false;
     accel::Vec3f pa[3], pb[3];
-    accel::triangle_vertices(va, a.prim, pa[0], pa[1], pa[2]);
-    accel::triangle_vertices(vb, b.prim, pb[0], pb[1], pb[2]);
-    // A prototype's triangles are in object space: compare where the placements put them.
-    const auto placed = [&](const RayOutcome& o, accel::Vec3f* p) {
-        if (o.inst == accel::kInvalidId) return;
-        const accel::Affine3f& m = g.instances().instances[o.inst].object_to_world;
-        for (int k = 0; k < 3; ++k) p[k] = m.point(p[k]);
-    };
-    placed(a, pa);
-    placed(b, pb);
+    hit_triangle(g, a, pa);
+    hit_triangle(g, b, pb);
     for (const auto& x : pa)
         for (const auto& y : pb)
             if (same_position(x, y)) return true;
@@ -138,8 +138,10 @@ bool hit_is_marginal(const accel::Ray& ray, const RayOutcome& h, const SceneGeom
             if (a.mode == scenes::AlphaMode::Mask) {
                 float slack = 1e-3f;
                 if (a.texture && !a.mesh->uvs.empty()) {
-                    accel::Vec3f p0, p1, p2;
-                    accel::triangle_vertices(view, h.prim, p0, p1, p2);
+                    // In world space, as the hit point below is.
+                    accel::Vec3f q[3];
+                    hit_triangle(g, h, q);
+                    const accel::Vec3f p0 = q[0], p1 = q[1], p2 = q[2];
                     const float area2 = accel::length(accel::cross(p1 - p0, p2 - p0));
                     const float longest =
                         std::max({accel::length(p1 - p0), accel::length(p2 - p1), accel::length(p0 - p2)});

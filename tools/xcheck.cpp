@@ -52,8 +52,10 @@ void add_options(CLI::App& app, Options& o) {
         ->check(CLI::IsMember({"auto", "float", "quantized"}));
     app.add_option("--instancing", o.instancing,
                    "auto: the backends checked trace the file's instances, the reference their flattened copy "
-                   "(hits compared in the copy's ids); flatten: everything traces the copy")
-        ->check(CLI::IsMember({"auto", "flatten"}));
+                   "(hits compared in the copy's ids); keep: every backend, the reference too, traces the "
+                   "instances (hits compared by instance, geometry and primitive), for scenes whose flattened "
+                   "copy does not fit; flatten: everything traces the copy")
+        ->check(CLI::IsMember({"auto", "keep", "flatten"}));
     app.add_option("--dump", o.dump_path, "Write the disagreeing rays to FILE (replayable)");
     app.add_option("--replay", o.replay_path, "Trace the rays of FILE (from --dump) instead of generating rays")
         ->check(CLI::ExistingFile);
@@ -335,9 +337,12 @@ int main(int argc, char** argv) try {
     add_options(app, o);
     tools::parse_or_exit(app, argc, argv, "xcheck");
     scenes::Scene scene = tools::load_scene_or_exit(o.scene_path, "xcheck");
-    // Instances: the reference traces the flattened copy, the others the instances.
+    // Instances (--instancing): under auto the reference traces the flattened copy and the
+    // others the instances; under keep every backend traces the instances, so `scene`
+    // stays as loaded; under flatten every backend traces the copy.
     std::optional<scenes::Scene> instanced;
-    if (!scene.instances.empty()) {
+    const bool keep = o.instancing == "keep" && !scene.instances.empty();
+    if (!scene.instances.empty() && !keep) {
         if (o.instancing == "auto") instanced = scene;
         try {
             scenes::flatten_instances(scene);
@@ -347,7 +352,8 @@ int main(int argc, char** argv) try {
     }
     const uint64_t tris = scene.num_triangles();
     if (tris == 0 && scene.spheres.empty()) fail(o.scene_path + ": the scene has no geometry");
-    const Backends b = choose_backends(o, tris <= 10000, instanced.has_value());
+    // The naive reference loops over every placed triangle, so under keep the instanced count decides.
+    const Backends b = choose_backends(o, (keep ? scene.instanced_triangles() : tris) <= 10000, instanced.has_value());
     const std::vector<renderer::RayKind> kinds = parse_kinds(o.kinds_arg);  // before the builds: fail fast
 
     const renderer::SceneGeometry geometry(scene);
@@ -367,6 +373,11 @@ int main(int argc, char** argv) try {
                     "copy, every other backend the instances\n",
                     instanced->instances.size(), (unsigned long long)instanced->instanced_triangles(),
                     (unsigned long long)instanced->num_triangles());
+    if (keep)
+        std::printf("instances: %zu placing %llu triangles of %llu unique; every backend, the reference too, "
+                    "traces the instances\n",
+                    scene.instances.size(), (unsigned long long)scene.instanced_triangles(),
+                    (unsigned long long)scene.num_triangles());
     std::vector<renderer::Disagreement> bad;
     const uint64_t total_real = compare_all(b, built, sets, geometry, bad);
     if (!o.replay_path.empty()) print_replayed(b, built, sets);
