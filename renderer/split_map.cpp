@@ -27,10 +27,10 @@ std::vector<double> box(const std::vector<double>& in, int w, int h, int r) {
 }
 
 /// 2^round(log2 k) for k > sqrt(2), at most 2^7 and max_k; 1 below (and for NaN). The
-/// bisection below asks it of every pixel 66 times, so k is compared with the half powers
-/// 2^(e + 1/2) (sqrt(2) scaled by powers of two, exactly) instead of taking log2 k and
-/// rounding: the same exponent except where log2's rounding meets a half power ("the
-/// split map's rounding" in renderer/README.md).
+/// bisection below asks it of every pixel that splits, 66 times, so k is compared with
+/// the half powers 2^(e + 1/2) (sqrt(2) scaled by powers of two, exactly) instead of
+/// taking log2 k and rounding: the same exponent except where log2's rounding meets a
+/// half power ("the split map's rounding" in renderer/README.md).
 int pow2_near(double k, int max_k) {
     constexpr double kSqrt2 = 1.4142135623730951;
     int e = 0;
