@@ -949,8 +949,11 @@ PT_INLINE inline Closest trace_bottom(const InstancedBase& s, const Placement& p
 /// (P::test, ordered, entries beyond the closest hit dropped on pop), and a leaf's
 /// placements each run the flat traversal (traverse) of their bottom tree, the segment
 /// shrinking across them. Counting: nodes of both levels, and the bottom's leaf lanes.
+/// Flattened: the bottom traversal is inlined here, so entering an instance is no call (no
+/// realigned 11 KB frame, no vzeroupper, no spill of the top walk's vectors around it;
+/// accel/DECISIONS.md, "bottom walk inlined into the top").
 template <class PT, class P, TriangleTest Test, bool Count, bool Masked>
-TopClosest traverse_top(const InstancedBase& s, const Ray& ray, TraceStats& stats) {
+[[gnu::flatten]] TopClosest traverse_top(const InstancedBase& s, const Ray& ray, TraceStats& stats) {
     const typename PT::Node* nodes = node_array<typename PT::Node>(s.top_);
     TopClosest best{{ray.t_max, 0.0f, 0.0f, {}}, nullptr, 0};
     if (!nodes) return best;
