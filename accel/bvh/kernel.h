@@ -1049,9 +1049,9 @@ template <class PT, class P, TriangleTest Test, bool Count, bool Masked>
 /// lane first, which the top collapse makes the largest by surface area (wide.cpp, collapse_top),
 /// P::push for the rest (not the flat occlude's nearest-first: shadow rays 1.4-2.0x
 /// faster on instanced forests and fields; accel/DECISIONS.md, "top-level any-hit
-/// order"), each placement's bottom tree by occlude.
+/// order"), each placement's bottom tree by occlude, inlined here as in traverse_top.
 template <class PT, class P, TriangleTest Test, bool Count, bool Masked>
-bool occlude_top(const InstancedBase& s, const Ray& ray, TraceStats& stats) {
+[[gnu::flatten]] bool occlude_top(const InstancedBase& s, const Ray& ray, TraceStats& stats) {
     const typename PT::Node* nodes = node_array<typename PT::Node>(s.top_);
     if (!nodes) return false;
     uint64_t boxes = 0;
