@@ -139,12 +139,11 @@ bool hit_is_marginal(const accel::Ray& ray, const RayOutcome& h, const SceneGeom
                 float slack = 1e-3f;
                 if (a.texture && !a.mesh->uvs.empty()) {
                     // In world space, as the hit point below is.
-                    accel::Vec3f q[3];
-                    hit_triangle(g, h, q);
-                    const accel::Vec3f p0 = q[0], p1 = q[1], p2 = q[2];
-                    const float area2 = accel::length(accel::cross(p1 - p0, p2 - p0));
+                    accel::Vec3f v[3];
+                    hit_triangle(g, h, v);
+                    const float area2 = accel::length(accel::cross(v[1] - v[0], v[2] - v[0]));
                     const float longest =
-                        std::max({accel::length(p1 - p0), accel::length(p2 - p1), accel::length(p0 - p2)});
+                        std::max({accel::length(v[1] - v[0]), accel::length(v[2] - v[1]), accel::length(v[0] - v[2])});
                     const accel::Vec3f p = ray.org + ray.dir * h.t;
                     const float mag = std::max({std::abs(p.x), std::abs(p.y), std::abs(p.z)});
                     const float d_bary = 8.0f * 0x1p-24f * mag * longest / std::max(area2, 1e-30f);

@@ -929,7 +929,7 @@ PT_INLINE inline Ray object_ray(const Affine3f& a, const Ray& r, float t) {
                                   c3);
     const __m128 dir = _mm_add_ps(_mm_add_ps(_mm_mul_ps(c0, _mm_set1_ps(r.dir.x)), _mm_mul_ps(c1, _mm_set1_ps(r.dir.y))),
                                   _mm_mul_ps(c2, _mm_set1_ps(r.dir.z)));
-    alignas(16) float f[8];
+    float f[7];
     _mm_storeu_ps(f, org);
     _mm_storeu_ps(f + 3, dir);
     Ray o;
