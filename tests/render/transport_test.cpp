@@ -145,9 +145,9 @@ TEST(WhiteFurnace, SplitBouncesKeepTheFurnace) {
                     << " se=" << e.se;
                 se[k == 4] = e.se;
             }
-            if (!hemisphere && rr < 0)
-                EXPECT_LT(se[1], 0.6 * se[0])
-                    << "four branches, a quarter of the variance";
+            if (!hemisphere && rr < 0) {
+                EXPECT_LT(se[1], 0.6 * se[0]) << "four branches, a quarter of the variance";
+            }
         }
     }
 }
