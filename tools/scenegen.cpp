@@ -82,6 +82,7 @@ struct MaterialData {
     float r = 0.8f, g = 0.8f, b = 0.8f;
     int texture = -1;  ///< base colour texture: an index into Document::images
     bool mask = false;  ///< alphaMode MASK with alphaCutoff 0.5, double-sided (leaf cards)
+    bool cutout_off = false;  ///< a mask material written OPAQUE, still double-sided (opaque_cutouts)
 };
 
 struct Document {
@@ -287,7 +288,8 @@ inline std::string to_glb(const Document& doc) {
            << "," << fmt_float(m.b) << ",1],\"metallicFactor\":0,\"roughnessFactor\":1";
         if (m.texture >= 0) js << ",\"baseColorTexture\":{\"index\":" << m.texture << "}";
         js << "}";
-        if (m.mask) js << ",\"alphaMode\":\"MASK\",\"alphaCutoff\":0.5,\"doubleSided\":true";
+        if (m.mask && !m.cutout_off) js << ",\"alphaMode\":\"MASK\",\"alphaCutoff\":0.5";
+        if (m.mask) js << ",\"doubleSided\":true";
         js << "}";
     }
     js << "]";
@@ -740,6 +742,13 @@ inline Document generate(const std::string& kind, uint64_t triangles, uint64_t s
     return doc;
 }
 
+/// The same document with its alpha-masked materials written OPAQUE (the leaf cards then
+/// stop rays as whole quads): the same trees and placements without the alpha test, to
+/// measure what the test costs a backend (benchmarks/RESULTS.md, "Instances").
+inline void opaque_cutouts(Document& doc) {
+    for (MaterialData& m : doc.materials) m.cutout_off = m.mask;
+}
+
 }  // namespace scenegen
 
 #ifndef SCENEGEN_NO_MAIN
@@ -758,6 +767,9 @@ int main(int argc, char** argv) {
     app.add_option("--triangles,-n", triangles, "At least this many triangles after instancing (default 100000)");
     app.add_option("--seed", seed, "Random seed (default 1)");
     app.add_option("-o,--output", out, "Output .glb file")->required();
+    bool opaque = false;
+    app.add_flag("--opaque-cutouts", opaque,
+                 "Write alpha-masked materials (the forest's leaf cards) OPAQUE: the same geometry without the alpha test");
     tools::memory::install("scenegen");
     CLI11_PARSE(app, argc, argv);
     // Before any work: a mesh of millions of triangles is not made for a folder it
@@ -769,7 +781,8 @@ int main(int argc, char** argv) {
     try {
         const auto t0 = std::chrono::steady_clock::now();
         tools::memory::set_stage("generating the mesh");
-        const scenegen::Document doc = scenegen::generate(kind, triangles, seed);
+        scenegen::Document doc = scenegen::generate(kind, triangles, seed);
+        if (opaque) scenegen::opaque_cutouts(doc);
         tools::memory::set_stage("writing the file");
         scenegen::write_glb(out, doc);
         const double s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();

@@ -117,6 +117,31 @@ TEST(Scenegen, ForestScalesByInstancesNotBytes) {
     EXPECT_EQ(doc.images[0].compare(0, 8, "\x89PNG\r\n\x1a\n"), 0);
 }
 
+// --opaque-cutouts writes the same forest with its leaf cards OPAQUE: the loader sees the
+// same triangles and materials, the leaf material still double-sided, and no mask.
+TEST(Scenegen, OpaqueCutoutsKeepTheForestButDropTheMask) {
+    for (bool opaque : {false, true}) {
+        scenegen::Document doc = scenegen::generate("forest", 20000, 5);
+        if (opaque) scenegen::opaque_cutouts(doc);
+        const std::string path = temp_path(opaque ? "opaque.glb" : "masked.glb");
+        scenegen::write_glb(path, doc);
+        const scenes::Scene scene = scenes::load_scene(path);
+        std::filesystem::remove(path);
+        EXPECT_EQ(scene.world_triangles() + scene.instanced_triangles(), doc.instanced_triangles());
+        int masked = 0, leaf = 0;
+        for (const scenes::Material& m : scene.materials) {
+            masked += m.alpha_mode == scenes::AlphaMode::Mask;
+            if (m.name == "leaf") {
+                ++leaf;
+                EXPECT_TRUE(m.double_sided);
+                EXPECT_EQ(m.alpha_mode, opaque ? scenes::AlphaMode::Opaque : scenes::AlphaMode::Mask);
+            }
+        }
+        EXPECT_EQ(leaf, 1);
+        EXPECT_EQ(masked, opaque ? 0 : 1);
+    }
+}
+
 namespace {
 
 /// Smallest and largest triangle area and the largest edge-length ratio (longest edge over
