@@ -81,8 +81,8 @@ struct MaterialData {
     std::string name;
     float r = 0.8f, g = 0.8f, b = 0.8f;
     int texture = -1;  ///< base colour texture: an index into Document::images
-    bool mask = false;  ///< alphaMode MASK with alphaCutoff 0.5, double-sided (leaf cards)
-    bool cutout_off = false;  ///< a mask material written OPAQUE, still double-sided (opaque_cutouts)
+    bool mask = false;          ///< alphaMode MASK with alphaCutoff 0.5 (leaf cards)
+    bool double_sided = false;  ///< glTF doubleSided (leaf cards)
 };
 
 struct Document {
@@ -288,8 +288,8 @@ inline std::string to_glb(const Document& doc) {
            << "," << fmt_float(m.b) << ",1],\"metallicFactor\":0,\"roughnessFactor\":1";
         if (m.texture >= 0) js << ",\"baseColorTexture\":{\"index\":" << m.texture << "}";
         js << "}";
-        if (m.mask && !m.cutout_off) js << ",\"alphaMode\":\"MASK\",\"alphaCutoff\":0.5";
-        if (m.mask) js << ",\"doubleSided\":true";
+        if (m.mask) js << ",\"alphaMode\":\"MASK\",\"alphaCutoff\":0.5";
+        if (m.double_sided) js << ",\"doubleSided\":true";
         js << "}";
     }
     js << "]";
@@ -688,7 +688,7 @@ inline Document generate(const std::string& kind, uint64_t triangles, uint64_t s
         // (2.6e6 of 1e11 at the top).
         doc.materials.push_back({"ground", 0.35f, 0.3f, 0.2f});
         doc.materials.push_back({"bark", 0.3f, 0.22f, 0.15f});
-        doc.materials.push_back({"leaf", 1.0f, 1.0f, 1.0f, 0, true});
+        doc.materials.push_back({"leaf", 1.0f, 1.0f, 1.0f, 0, true, true});
         doc.images.push_back(leaf_png(128));
         constexpr uint64_t kMaxPlacements = 10'000'000, kPrototypes = 256;
         const uint64_t per_tree = std::max<uint64_t>(40, ceil_div(triangles, kMaxPlacements));
@@ -746,7 +746,7 @@ inline Document generate(const std::string& kind, uint64_t triangles, uint64_t s
 /// stop rays as whole quads): the same trees and placements without the alpha test, to
 /// measure what the test costs a backend (benchmarks/RESULTS.md, "Instances").
 inline void opaque_cutouts(Document& doc) {
-    for (MaterialData& m : doc.materials) m.cutout_off = m.mask;
+    for (MaterialData& m : doc.materials) m.mask = false;
 }
 
 }  // namespace scenegen
