@@ -33,7 +33,9 @@ struct Placement;
 ///    else by area) and seen by every ray; a mesh emits on both sides when its material
 ///    is double-sided (CS184 files always; glTF's doubleSided), else on the side its
 ///    shading normals face. An area light that describes an emissive panel is counted
-///    once, as the mesh. -H and -l converge to the same image.
+///    once, as the mesh. -H and -l converge to the same image where every light is a
+///    surface: no hemisphere ray finds a point, spot or directional light, which -l
+///    samples under either model (the CLI says so when -H meets one).
 enum class LightModel : uint8_t { Course, Mesh };
 
 /// "course" | "mesh"; "" = the default for the scene's format (course for COLLADA,

@@ -107,7 +107,8 @@ void add_course_options(CLI::App& app, Options& o) {
         ->expected(2);
     app.add_flag("-H", o.is.hemisphere, "Direct lighting by uniform hemisphere sampling instead of light sampling "
                                         "(under --lights=course it converges to a slightly different image than "
-                                        "light sampling, as in the course)");
+                                        "light sampling, as in the course; under either, point, spot and "
+                                        "directional lights, which no hemisphere ray finds, light nothing)");
     app.add_option("-e", o.env_map, "Environment map: latitude-longitude EXR/HDR, importance-sampled");
     app.add_option("-b", o.lens_radius, "Thin lens radius (0 = pinhole)")->check(CLI::Range(0.0f, 1e30f));
     app.add_option("-d", o.focal_distance, "Focal distance of the thin lens (default: to the scene centre)")
@@ -162,7 +163,8 @@ void add_scene_options(CLI::App& app, Options& o) {
                    "for glTF): every emissive surface is the light, sampled (by solid angle where near, "
                    "else by area) and seen by every "
                    "ray, two-sided for .dae (glTF: the material's doubleSided); an area light describing "
-                   "the same panel is counted once; -H and -l converge to the same image")
+                   "the same panel is counted once; -H and -l converge to the same image where every light is "
+                   "a surface (-H finds no point, spot or directional light)")
         ->check(CLI::IsMember({"course", "mesh"}));
     app.add_option("--instancing", o.instancing,
                    "Scenes that place a mesh more than once: auto (default; each placement is an "
@@ -470,6 +472,17 @@ std::unique_ptr<renderer::LightSet> make_lights(const Options& o, const scenes::
         scene, renderer::parse_light_model(o.lights_mode, scene.format), notes);
     std::fprintf(stderr, "[PathTracer] Light semantics: --lights=%s\n", renderer::light_model_name(lights->model()));
     std::fprintf(stderr, "%s\n", lights->summary().c_str());
+    // Hemisphere rays see emission only: a delta light's contribution would vanish without
+    // a word, as in the course, and the image differ from -l's by all of it.
+    if (o.is.hemisphere) {
+        size_t delta = 0;
+        for (size_t i = 0; i < lights->size(); ++i) delta += lights->is_delta(i);
+        if (delta)
+            notes.push_back(fmt::format("-H: no hemisphere ray finds a point, spot or directional light; "
+                                        "{} of this scene's lights light nothing (light sampling, without -H, "
+                                        "samples them)",
+                                        delta));
+    }
     tools::print_once("[PathTracer] Note: ", notes);
     return lights;
 }

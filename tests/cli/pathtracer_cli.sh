@@ -30,6 +30,14 @@ printf 'not an image' > "$TMP/sky.exr"
 check bad-env-map 2 "sky.exr: cannot read the environment map" -- "$PT" -e "$TMP/sky.exr" -r 8 6 "$SRC/scenes/cornell.dae"
 check bad-lens 2 "-b" -- "$PT" -b -1 "$SRC/scenes/cornell.dae"
 
+# -H finds no delta light: a scene lit by a point light says so, and only with -H.
+check hemisphere-point-light 0 "Note: -H: no hemisphere ray finds a point, spot or directional light; 1 of" -- \
+  "$PT" -H -t 1 -s 1 -r 8 6 -f "$TMP/h.png" "$SRC/scenes/lights/point.gltf"
+check point-light-sampled 0 "Lights sampled: .* 1 point" -- "$PT" -t 1 -s 1 -r 8 6 -f "$TMP/h.png" "$SRC/scenes/lights/point.gltf"
+grep -q "hemisphere ray" "$TMP/err" && { echo "FAIL point-light-sampled: the -H note without -H"; fails=$((fails+1)); }
+check hemisphere-area-light 0 "" -- "$PT" -H -t 1 -s 1 -r 8 6 -f "$TMP/h.png" "$SRC/scenes/cornell.dae"
+grep -q "hemisphere ray" "$TMP/err" && { echo "FAIL hemisphere-area-light: the -H note for an area light"; fails=$((fails+1)); }
+
 # Every bad-input class: exit status 2 and a message naming the file (and the element).
 mkdir -p "$TMP/bad"
 dae_head='<?xml version="1.0"?><COLLADA xmlns="http://www.collada.org/2005/11/COLLADASchema" version="1.4.1"><asset><up_axis>Z_UP</up_axis></asset>'
