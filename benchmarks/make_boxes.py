@@ -2,8 +2,8 @@
 """Writes Cornell boxes for the efficiency goal against Cycles (benchmarks/RESULTS.md,
 "Efficiency at equal error") from the course's own files: the two boxes the shared
 scenes lack, by giving materials of theirs the CGL elements the course's 3-2 scenes use,
-and CBgems with the camera matrix the Cycles harness can read. The geometry, the panel
-and the framing stay the file's.
+CBgems with the camera matrix the Cycles harness can read, and CBempty lit by its panel
+alone. The geometry, the panel and the framing stay the file's.
 
   copper_bunny  from CBbunny.dae: the bunny (the Default effect) a rough copper
                 microfacet conductor, Beckmann alpha 0.5 and copper's eta and k at the
@@ -14,11 +14,17 @@ and the framing stay the file's.
                 parser refuses (a TypeError in Matrix()); the missing one is the 1 of
                 the third row, (0 1 0 0): restored, the camera sits at y = 3 looking down
                 -y, the view direction our loader rebuilds from the short matrix, so ours
-                renders the same bits from either file.
+                renders the same bits from either file;
+  empty_panel   from CBempty.dae: its one library light is a plain COLLADA <point> (the
+                other boxes give the same light a CGL area element), which ours samples
+                beside the emissive panel under both light semantics and the harness
+                drops ("non-area lights ignored"); without its <instance_light>, the
+                panel is the box's only light in both renderers.
 
   benchmarks/make_boxes.py copper_bunny ../shared/scenes/cs184/CBbunny.dae OUT.dae
   benchmarks/make_boxes.py mirror_glass ../shared/scenes/cs184/CBspheres_lambertian.dae OUT.dae
   benchmarks/make_boxes.py gems_camera ../shared/scenes/cs184/CBgems.dae OUT.dae
+  benchmarks/make_boxes.py empty_panel ../shared/scenes/cs184/CBempty.dae OUT.dae
 """
 import sys
 
@@ -40,12 +46,14 @@ KINDS = {
         'lambertian-effect': cgl('<mirror><reflectance>1 1 1</reflectance></mirror>'),
     },
     'gems_camera': {},
+    'empty_panel': {},
 }
 
 # Text a kind replaces, each exactly once: (what the file has, what it gets).
 REPLACE = {
     'gems_camera': [('<matrix sid="transform">-1 0 0 0 0 0 1 3 0 0 0 0 0 0 1</matrix>',
                      '<matrix sid="transform">-1 0 0 0 0 0 1 3 0 1 0 0 0 0 0 1</matrix>')],
+    'empty_panel': [('<instance_light url="#Area-light"/>', '')],
 }
 
 
