@@ -33,27 +33,23 @@ def cgl(body):
     return f'<extra><technique profile="CGL">{body}</technique></extra>'
 
 
+# Per kind: the CGL element each named effect gains, and text replaced (each found
+# exactly once) as (what the file has, what it gets).
 KINDS = {
-    'copper_bunny': {
+    'copper_bunny': {'effects': {
         'Default-effect': cgl('<microfacet><alpha>0.5</alpha><eta>0.2004 0.9240 1.1022</eta>'
                               '<k>3.9129 2.4528 2.1422</k></microfacet>'),
-    },
+    }},
     # The file's "refract" sphere (a Phong surface, effect "glass-effect") becomes glass
     # and its Lambertian one a mirror.
-    'mirror_glass': {
+    'mirror_glass': {'effects': {
         'glass-effect': cgl('<glass><reflectance>1 1 1</reflectance><transmittance>1 1 1</transmittance>'
                             '<roughness>0</roughness><ior>1.5</ior></glass>'),
         'lambertian-effect': cgl('<mirror><reflectance>1 1 1</reflectance></mirror>'),
-    },
-    'gems_camera': {},
-    'empty_panel': {},
-}
-
-# Text a kind replaces, each exactly once: (what the file has, what it gets).
-REPLACE = {
-    'gems_camera': [('<matrix sid="transform">-1 0 0 0 0 0 1 3 0 0 0 0 0 0 1</matrix>',
-                     '<matrix sid="transform">-1 0 0 0 0 0 1 3 0 1 0 0 0 0 0 1</matrix>')],
-    'empty_panel': [('<instance_light url="#Area-light"/>', '')],
+    }},
+    'gems_camera': {'replace': [('<matrix sid="transform">-1 0 0 0 0 0 1 3 0 0 0 0 0 0 1</matrix>',
+                                 '<matrix sid="transform">-1 0 0 0 0 0 1 3 0 1 0 0 0 0 0 1</matrix>')]},
+    'empty_panel': {'replace': [('<instance_light url="#Area-light"/>', '')]},
 }
 
 
@@ -62,13 +58,13 @@ def main():
         sys.exit(__doc__)
     kind, src, out = sys.argv[1:]
     text = open(src, encoding='utf-8').read()
-    for effect, extra in KINDS[kind].items():
+    for effect, extra in KINDS[kind].get('effects', {}).items():
         start = text.find(f'<effect id="{effect}">')
         end = text.find('</effect>', start)
         if start < 0 or end < 0 or '<extra>' in text[start:end]:
             sys.exit(f'{src}: no plain <effect id="{effect}"> to give {kind}\'s material')
         text = text[:end] + extra + '\n    ' + text[end:]
-    for old, new in REPLACE.get(kind, []):
+    for old, new in KINDS[kind].get('replace', []):
         if text.count(old) != 1:
             sys.exit(f'{src}: {kind} expects {old} once, found it {text.count(old)} times')
         text = text.replace(old, new)
