@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cmath>
 #include <memory>
+#include <random>
 #include <string>
 #include <vector>
 
@@ -55,6 +56,21 @@ inline scenes::Mesh quad(Vec3f a, Vec3f b, Vec3f c, Vec3f d, uint32_t material =
     m.indices = {0, 1, 2, 0, 2, 3};
     m.material = material;
     return m;
+}
+
+/// The fraction of `rays` shadow rays straight up (+y, t in [1e-4, 10]) from random points
+/// of the square |x|, |z| < 0.95 at y = 0 that `acc` finds occluded: what a masked or
+/// blended cover above that floor lets through, as a frequency with binomial error.
+inline double fraction_blocked_upward(const accel::Accelerator& acc, int rays) {
+    accel::TraceStats st;
+    std::mt19937 rng(7);
+    std::uniform_real_distribution<float> pos(-0.95f, 0.95f);
+    int blocked = 0;
+    for (int k = 0; k < rays; ++k) {
+        const accel::Ray up{Vec3f(pos(rng), 0.0f, pos(rng)), Vec3f(0, 1, 0), 1e-4f, 10.0f};
+        blocked += acc.occluded(up, st);
+    }
+    return double(blocked) / rays;
 }
 
 /// Everything a render needs, kept alive together.
