@@ -59,8 +59,8 @@ inline scenes::Mesh quad(Vec3f a, Vec3f b, Vec3f c, Vec3f d, uint32_t material =
 }
 
 /// The fraction of `rays` shadow rays straight up (+y, t in [1e-4, 10]) from random points
-/// of the square |x|, |z| < 0.95 at y = 0 that `acc` finds occluded: what a masked or
-/// blended cover above that floor lets through, as a frequency with binomial error.
+/// of the square |x|, |z| < 0.95 at y = 0 that `acc` finds occluded: how much a masked or
+/// blended cover above that floor stops, as a frequency with binomial error.
 inline double fraction_blocked_upward(const accel::Accelerator& acc, int rays) {
     accel::TraceStats st;
     std::mt19937 rng(7);
