@@ -1257,6 +1257,9 @@ const DecodedPrimitive& Loader::decode_primitive(int mi, int pi) {
     if (d.skip) return primitives_.emplace(key, std::move(d)).first->second;
 
     d.material = material_index(p.material, pdesc);
+    // glTF multiplies the base colour (and its alpha) by COLOR_0; we do not read it, so a
+    // vertex-coloured model would render in its material's colour without a word.
+    if (p.attributes.count("COLOR_0")) ignored_material_features_.insert("vertex colours (COLOR_0)");
     const int uv_set = material_uv_set_[d.material];
     const std::string uv_sem = uv_set >= 0 ? "TEXCOORD_" + std::to_string(uv_set) : "";
     gltf_detail::DracoPrimitive draco;

@@ -384,6 +384,20 @@ TEST(GltfMaterials, EmissiveStrengthAndDefaults) {
     EXPECT_LE(ignored_lines, 1) << "ignored features are listed on one line";
 }
 
+// Vertex colours multiply the base colour in glTF; we do not read them, and say so.
+TEST(GltfMaterials, VertexColoursAreNamedAsIgnored) {
+    Doc d = triangle_doc();
+    const std::string mesh = "\"meshes\":[{\"primitives\":[{\"attributes\":{\"POSITION\":0%s},\"indices\":1}]}],"
+                             "\"scenes\":[{\"nodes\":[0]}],\"nodes\":[{\"mesh\":0}]";
+    const auto doc = [&](const std::string& extra) {
+        std::string m = mesh;
+        m.replace(m.find("%s"), 2, extra);
+        return d.json(m);
+    };
+    EXPECT_TRUE(has_note(load(doc(",\"COLOR_0\":0")), "vertex colours (COLOR_0)"));
+    EXPECT_FALSE(has_note(load(doc("")), "COLOR_0"));
+}
+
 TEST(GltfMaterials, MetallicRoughnessTransmissionAndIor) {
     Doc d = triangle_doc();
     auto doc = [&](const std::string& material) {
