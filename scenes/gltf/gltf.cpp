@@ -435,7 +435,8 @@ private:
     /// Image `ii` decoded for a slot that reads `channels` (see decode_texture); sRGB
     /// colour for base colour and emissive, linear data otherwise.
     uint32_t decoded_texture(int ii, const std::string& user, const char* channels = "RGBA", bool srgb = true);
-    void read_pbr(const tinygltf::Material& g, const std::string& mdesc, Material& out, int& uv_set);
+    void read_pbr(const tinygltf::Material& g, const std::string& mdesc, Material& out, int& uv_set,
+                  UvTransform& uv_xform);
 
     std::string name_;
     const tinygltf::Model& m_;
@@ -1060,7 +1061,7 @@ uint32_t Loader::material_index(int mi, const std::string& user) {
             // is only a fallback for viewers without the extension, so none is read.
             out.unlit = true;
         } else {
-            read_pbr(g, mdesc, out, uv_set);
+            read_pbr(g, mdesc, out, uv_set, uv_xform);
         }
         // glTF 2.0 spec 3.9.4 (Alpha Coverage): alpha is baseColorFactor's times the base
         // colour texture's; alphaCutoff counts for MASK alone.
@@ -1096,7 +1097,8 @@ uint32_t Loader::material_index(int mi, const std::string& user) {
 /// with KHR_materials_transmission and KHR_materials_ior. A material whose metallic and
 /// transmission are zero, untextured, stays Diffuse (Lambert), so a plain diffuse file
 /// keeps the diffuse integrator's speed; anything else is BsdfKind::MetallicRoughness.
-void Loader::read_pbr(const tinygltf::Material& g, const std::string& mdesc, Material& out, int& uv_set) {
+void Loader::read_pbr(const tinygltf::Material& g, const std::string& mdesc, Material& out, int& uv_set,
+                      UvTransform& uv_xform) {
     const auto& pbr = g.pbrMetallicRoughness;
     auto factor = [&](double v, const char* what) {
         if (!std::isfinite(v) || v < 0 || v > 1) fail(mdesc + ": " + what + " must be in [0, 1]");
@@ -1104,13 +1106,14 @@ void Loader::read_pbr(const tinygltf::Material& g, const std::string& mdesc, Mat
     };
     out.metallic = factor(pbr.metallicFactor, "metallicFactor");
     out.roughness = factor(pbr.roughnessFactor, "roughnessFactor");
+    // One uv set and transform per material, as for the base colour and emission: the
+    // first texture's (its KHR_texture_transform and texCoord override included); one
+    // that differs is sampled with them, and said so.
     auto data_texture = [&](const tinygltf::TextureInfo& ti, const char* slot, const char* channels) {
         if (ti.texCoord < 0) fail(mdesc + ": negative texCoord");
         const int img = texture_image(ti.index, mdesc + " " + slot);
-        if (uv_set < 0) uv_set = ti.texCoord;
-        else if (uv_set != ti.texCoord)
-            note(mdesc + ": " + slot + " uses TEXCOORD_" + std::to_string(ti.texCoord) + " but another texture TEXCOORD_" +
-                 std::to_string(uv_set) + "; both sampled with the latter");
+        int tc = ti.texCoord;
+        const UvTransform xf = texture_transform(ti, mdesc + " " + slot, tc);
         // A missing data map degrades to the factors (BoomBox in the shared corpus lacks its
         // occlusion-roughness-metallic image); a missing base colour stays an error.
         const tinygltf::Image& im = m_.images[size_t(img)];
@@ -1119,6 +1122,15 @@ void Loader::read_pbr(const tinygltf::Material& g, const std::string& mdesc, Mat
             if (missing_data_images_.insert(img).second)
                 note(mdesc + ": " + slot + " " + image_desc(img) + " not found; using the factors alone");
             return kNoTexture;
+        }
+        if (uv_set < 0) {
+            uv_set = tc;
+            uv_xform = xf;
+        } else if (uv_set != tc) {
+            note(mdesc + ": " + slot + " uses TEXCOORD_" + std::to_string(tc) + " but another texture TEXCOORD_" +
+                 std::to_string(uv_set) + "; both sampled with the latter");
+        } else if (xf != uv_xform) {
+            note(mdesc + ": " + slot + " has another KHR_texture_transform than another texture; both sampled with the latter's");
         }
         return decoded_texture(img, mdesc + " " + slot, channels, false);
     };
@@ -1129,6 +1141,7 @@ void Loader::read_pbr(const tinygltf::Material& g, const std::string& mdesc, Mat
         tinygltf::TextureInfo ti;
         ti.index = g.normalTexture.index;
         ti.texCoord = g.normalTexture.texCoord;
+        ti.extensions = g.normalTexture.extensions;
         out.normal_texture = data_texture(ti, "normalTexture", "RG");
         if (!std::isfinite(g.normalTexture.scale)) fail(mdesc + ": normalTexture.scale is not finite");
         out.normal_scale = float(g.normalTexture.scale);
@@ -1144,6 +1157,10 @@ void Loader::read_pbr(const tinygltf::Material& g, const std::string& mdesc, Mat
             ti.index = t.Has("index") && t.Get("index").IsInt() ? t.Get("index").GetNumberAsInt() : -1;
             ti.texCoord = t.Has("texCoord") && t.Get("texCoord").IsInt() ? t.Get("texCoord").GetNumberAsInt() : 0;
             if (ti.index < 0) fail(mdesc + ": transmissionTexture has no index");
+            if (t.Has("extensions") && t.Get("extensions").IsObject()) {
+                const tinygltf::Value& e = t.Get("extensions");
+                for (const std::string& key : e.Keys()) ti.extensions[key] = e.Get(key);
+            }
             out.transmission_texture = data_texture(ti, "transmissionTexture", "R");
         }
     }

@@ -98,8 +98,9 @@ TEST(GltfDraco, BadDataNamesFileMeshAndPrimitive) {
 }
 
 /// One textured triangle with two uv sets; `transform` is the baseColorTexture's
-/// KHR_texture_transform object ("" = none).
-std::string textured_triangle(const std::string& transform) {
+/// KHR_texture_transform object ("" = none). `textures`: the material's texture slots
+/// instead (its pbrMetallicRoughness and top-level members, written out).
+std::string textured_triangle(const std::string& transform, const std::string& textures = "") {
     std::vector<float> pos = {0, 0, 0, 1, 0, 0, 0, 1, 0}, uv0 = {0, 0, 1, 0, 0, 1}, uv1 = {0.5f, 0.5f, 0.5f, 0.5f, 0.5f, 0.5f};
     std::vector<uint8_t> bytes;
     for (const auto* v : {&pos, &uv0, &uv1}) {
@@ -113,7 +114,8 @@ std::string textured_triangle(const std::string& transform) {
            R"({"bufferView":1,"componentType":5126,"count":3,"type":"VEC2"},{"bufferView":2,"componentType":5126,"count":3,"type":"VEC2"}],)"
            R"("bufferViews":[{"buffer":0,"byteLength":36},{"buffer":0,"byteOffset":36,"byteLength":24},{"buffer":0,"byteOffset":60,"byteLength":24}],)"
            R"("buffers":[{"byteLength":84,"uri":"data:application/octet-stream;base64,)" + draco_writer::base64(bytes) + R"("}],)"
-           R"("materials":[{"name":"t","pbrMetallicRoughness":{"baseColorTexture":{"index":0)" + ext + R"(}}}],)"
+           R"("materials":[{"name":"t",)" +
+           (textures.empty() ? R"("pbrMetallicRoughness":{"baseColorTexture":{"index":0)" + ext + "}}" : textures) + "}],"
            R"("textures":[{"source":0}],"images":[{"uri":"data:image/png;base64,)" + draco_writer::kWhitePng + R"("}]})";
 }
 
@@ -132,6 +134,35 @@ TEST(GltfTextureTransform, OffsetRotationScaleReachTheUvs) {
     scenes::Scene plain = load(textured_triangle(""), "tt.gltf");
     EXPECT_NEAR(plain.meshes[0].uvs[1].x, 1.0f, 1e-7f);
     EXPECT_NEAR(plain.meshes[0].uvs[1].y, 0.0f, 1e-7f);
+}
+
+// The data maps take their own transform where they are the material's first texture,
+// and one that differs from the base colour's is named in a note (one uv transform per
+// material).
+TEST(GltfTextureTransform, DataMapsTakeTheirTransform) {
+    const std::string half = R"({"KHR_texture_transform":{"scale":[0.5,0.5]}})";
+    for (const std::string& textures :
+         {R"("pbrMetallicRoughness":{"metallicRoughnessTexture":{"index":0,"extensions":)" + half + "}}",
+          R"("normalTexture":{"index":0,"extensions":)" + half + "}",
+          R"("extensions":{"KHR_materials_transmission":{"transmissionFactor":1,"transmissionTexture":{"index":0,"extensions":)" +
+              half + "}}}"}) {
+        scenes::Scene s = load(textured_triangle("", textures), "tt.gltf");
+        ASSERT_EQ(s.meshes.size(), 1u) << textures;
+        EXPECT_NEAR(s.meshes[0].uvs[1].x, 0.5f, 1e-6f) << textures;
+        EXPECT_NEAR(s.meshes[0].uvs[2].y, 0.5f, 1e-6f) << textures;
+    }
+    const std::string both = R"("pbrMetallicRoughness":{"baseColorTexture":{"index":0}},"normalTexture":{"index":0,"extensions":)" +
+                             half + "}";
+    scenes::Scene s = load(textured_triangle("", both), "tt.gltf");
+    EXPECT_NEAR(s.meshes[0].uvs[1].x, 1.0f, 1e-6f) << "the base colour's (no) transform";
+    bool noted = false;
+    for (const std::string& n : s.notes) noted |= n.find("normalTexture has another KHR_texture_transform") != std::string::npos;
+    EXPECT_TRUE(noted);
+    scenes::Scene same = load(textured_triangle("", R"("pbrMetallicRoughness":{"baseColorTexture":{"index":0,"extensions":)" +
+                                                        half + R"(}},"normalTexture":{"index":0,"extensions":)" + half + "}"),
+                              "tt.gltf");
+    for (const std::string& n : same.notes) EXPECT_EQ(n.find("KHR_texture_transform than"), std::string::npos) << n;
+    EXPECT_NEAR(same.meshes[0].uvs[1].x, 0.5f, 1e-6f);
 }
 
 TEST(GltfTextureTransform, TexCoordOverrideAndBadValues) {
