@@ -432,6 +432,7 @@ private:
     UvTransform texture_transform(const tinygltf::TextureInfo& ti, const std::string& desc,
                                   int& texcoord) const;
     int texture_image(int ti, const std::string& user) const;
+    void check_sampler(int ti);
     /// Image `ii` decoded for a slot that reads `channels` (see decode_texture); sRGB
     /// colour for base colour and emissive, linear data otherwise.
     uint32_t decoded_texture(int ii, const std::string& user, const char* channels = "RGBA", bool srgb = true);
@@ -945,6 +946,24 @@ int Loader::texture_image(int ti, const std::string& user) const {
     return t.source;
 }
 
+/// Sampler settings of texture `ti` that we do not model, for the note of ignored material
+/// features: every texture repeats (wrapS, wrapT) and is filtered by the footprint of its
+/// lookup (magFilter), so a clamped label would blend its opposite edge in at its border
+/// and a NEAREST pixel-art texture would blur.
+void Loader::check_sampler(int ti) {
+    const int si = m_.textures[size_t(ti)].sampler;
+    if (si < 0 || size_t(si) >= m_.samplers.size()) return;
+    const tinygltf::Sampler& s = m_.samplers[size_t(si)];
+    for (int w : {s.wrapS, s.wrapT}) {
+        if (w == TINYGLTF_TEXTURE_WRAP_CLAMP_TO_EDGE)
+            ignored_material_features_.insert("sampler wrap CLAMP_TO_EDGE (textures repeat)");
+        else if (w == TINYGLTF_TEXTURE_WRAP_MIRRORED_REPEAT)
+            ignored_material_features_.insert("sampler wrap MIRRORED_REPEAT (textures repeat)");
+    }
+    if (s.magFilter == TINYGLTF_TEXTURE_FILTER_NEAREST)
+        ignored_material_features_.insert("sampler magFilter NEAREST (textures are filtered)");
+}
+
 uint32_t Loader::decoded_texture(int ii, const std::string& user, const char* channels, bool srgb) {
     used_images_.insert(ii);
     const auto key = std::make_tuple(ii, std::string(channels), srgb);
@@ -1029,6 +1048,7 @@ uint32_t Loader::material_index(int mi, const std::string& user) {
         const UvTransform emissive_xf = texture_transform(g.emissiveTexture, mdesc + " emissiveTexture", emissive_uv);
         if (pbr.baseColorTexture.index >= 0) {
             int img = texture_image(pbr.baseColorTexture.index, mdesc + " baseColorTexture");
+            check_sampler(pbr.baseColorTexture.index);
             out.albedo_texture = decoded_texture(img, mdesc + " baseColorTexture");
             uv_set = base_uv;
             uv_xform = base_xf;
@@ -1037,6 +1057,7 @@ uint32_t Loader::material_index(int mi, const std::string& user) {
             int img = texture_image(g.emissiveTexture.index, mdesc + " emissiveTexture");
             // A texture multiplying zero emission changes nothing: do not decode it.
             if (out.is_emissive()) {
+                check_sampler(g.emissiveTexture.index);
                 out.emission_texture = decoded_texture(img, mdesc + " emissiveTexture");
                 if (uv_set >= 0 && uv_set != emissive_uv)
                     note(mdesc + ": emissiveTexture uses TEXCOORD_" + std::to_string(emissive_uv) +
@@ -1123,6 +1144,7 @@ void Loader::read_pbr(const tinygltf::Material& g, const std::string& mdesc, Mat
                 note(mdesc + ": " + slot + " " + image_desc(img) + " not found; using the factors alone");
             return kNoTexture;
         }
+        check_sampler(ti.index);
         if (uv_set < 0) {
             uv_set = tc;
             uv_xform = xf;

@@ -165,6 +165,29 @@ TEST(GltfTextureTransform, DataMapsTakeTheirTransform) {
     EXPECT_NEAR(same.meshes[0].uvs[1].x, 0.5f, 1e-6f);
 }
 
+// Sampler settings we do not model (textures repeat and are filtered) are named in the
+// note of ignored material features; glTF's default sampler is not.
+TEST(GltfTextureTransform, UnmodelledSamplersAreNamed) {
+    const auto with_sampler = [](const std::string& sampler) {
+        std::string j = textured_triangle("");
+        const std::string textures = R"("textures":[{"source":0}])";
+        j.replace(j.find(textures), textures.size(), R"("textures":[{"source":0,"sampler":0}],"samplers":[)" + sampler + "]");
+        return load(j, "tt.gltf");
+    };
+    const auto noted = [](const scenes::Scene& s, const std::string& what) {
+        for (const std::string& n : s.notes)
+            if (n.find("material features ignored") != std::string::npos && n.find(what) != std::string::npos) return true;
+        return false;
+    };
+    const scenes::Scene clamp = with_sampler(R"({"wrapS":33071,"wrapT":33648,"magFilter":9728})");
+    EXPECT_TRUE(noted(clamp, "sampler wrap CLAMP_TO_EDGE"));
+    EXPECT_TRUE(noted(clamp, "sampler wrap MIRRORED_REPEAT"));
+    EXPECT_TRUE(noted(clamp, "sampler magFilter NEAREST"));
+    const scenes::Scene plain = with_sampler(R"({"wrapS":10497,"magFilter":9729})");
+    EXPECT_FALSE(noted(plain, "sampler"));
+    EXPECT_FALSE(noted(with_sampler("{}"), "sampler"));
+}
+
 TEST(GltfTextureTransform, TexCoordOverrideAndBadValues) {
     scenes::Scene s = load(textured_triangle(R"({"texCoord":1,"scale":[2,2]})"), "tt.gltf");
     for (const auto& t : s.meshes[0].uvs) {
