@@ -454,6 +454,7 @@ private:
     std::set<int> missing_data_images_;  // data maps whose file is missing (noted once)
     std::set<int> used_images_;          // images a modelled slot asked for
     std::set<std::string> ignored_material_features_;
+    std::set<int> morphed_meshes_;  // meshes with morph targets, loaded in their base shape
     uint64_t elements_ = 0;
     uint64_t decoded_elements_ = 0;
     // Instancing. placements_[mesh]: how often the traversed scene places each glTF mesh
@@ -1299,6 +1300,7 @@ const DecodedPrimitive& Loader::decode_primitive(int mi, int pi) {
     // glTF multiplies the base colour (and its alpha) by COLOR_0; we do not read it, so a
     // vertex-coloured model would render in its material's colour without a word.
     if (p.attributes.count("COLOR_0")) ignored_material_features_.insert("vertex colours (COLOR_0)");
+    if (!p.targets.empty()) morphed_meshes_.insert(mi);
     const int uv_set = material_uv_set_[d.material];
     const std::string uv_sem = uv_set >= 0 ? "TEXCOORD_" + std::to_string(uv_set) : "";
     gltf_detail::DracoPrimitive draco;
@@ -1645,6 +1647,17 @@ void Loader::run() {
         std::string s;
         for (const std::string& f : ignored_material_features_) s += (s.empty() ? "" : ", ") + f;
         note("glTF material features ignored: " + s);
+    }
+    if (!morphed_meshes_.empty()) {
+        // The file's default weights (a mesh's, or a node's in its stead) may pose a mesh
+        // away from its base shape; viewers show that pose, we do not.
+        bool weighted = false;
+        for (int mi : morphed_meshes_)
+            for (double w : m_.meshes[size_t(mi)].weights) weighted |= w != 0.0;
+        for (const tinygltf::Node& n : m_.nodes)
+            for (double w : n.weights) weighted |= n.mesh >= 0 && morphed_meshes_.count(n.mesh) && w != 0.0;
+        note("morph targets ignored: " + plural(morphed_meshes_.size(), "mesh", "meshes") +
+             " loaded in their base shape" + (weighted ? ", not in the pose the file's default weights give" : ""));
     }
     if (!m_.animations.empty()) note("animations ignored (" + std::to_string(m_.animations.size()) + ")");
 }

@@ -398,6 +398,24 @@ TEST(GltfMaterials, VertexColoursAreNamedAsIgnored) {
     EXPECT_FALSE(has_note(load(doc("")), "COLOR_0"));
 }
 
+// Morph targets are not applied: the mesh loads in its base shape, and the note says so,
+// and whether the file's default weights would have posed it otherwise.
+TEST(GltfMaterials, MorphTargetsAreNamedAsIgnored) {
+    Doc d = triangle_doc();
+    const auto doc = [&](const std::string& mesh_extra) {
+        return d.json("\"meshes\":[{\"primitives\":[{\"attributes\":{\"POSITION\":0},\"indices\":1,"
+                      "\"targets\":[{\"POSITION\":0}]}]" + mesh_extra + "}],"
+                      "\"scenes\":[{\"nodes\":[0]}],\"nodes\":[{\"mesh\":0}]");
+    };
+    const Scene rest = load(doc(""));
+    EXPECT_TRUE(has_note(rest, "morph targets ignored: 1 mesh loaded in their base shape"));
+    EXPECT_FALSE(has_note(rest, "default weights"));
+    EXPECT_TRUE(has_note(load(doc(",\"weights\":[0.5]")), "not in the pose the file's default weights give"));
+    EXPECT_FALSE(has_note(load(d.json("\"meshes\":[{\"primitives\":[{\"attributes\":{\"POSITION\":0},\"indices\":1}]}],"
+                                      "\"scenes\":[{\"nodes\":[0]}],\"nodes\":[{\"mesh\":0}]")),
+                          "morph targets"));
+}
+
 TEST(GltfMaterials, MetallicRoughnessTransmissionAndIor) {
     Doc d = triangle_doc();
     auto doc = [&](const std::string& material) {
