@@ -444,11 +444,11 @@ const LocalGeometry& Loader::geometry(pugi::xml_node geom) {
         next_base_ = 0;
         for (pugi::xml_node prim : mesh.children()) {
             const std::string_view tag = prim.name();
-            if (tag == "triangles" || tag == "polylist" || tag == "polygons")
+            if (tag == "triangles" || tag == "polylist" || tag == "polygons" || tag == "trifans" ||
+                tag == "tristrips")
                 parse_primitive(prim, g);
-            else if (tag == "lines" || tag == "linestrips" || tag == "trifans" ||
-                     tag == "tristrips")
-                note(fmt::format("geometry '{}': <{}> not supported, skipped", g.name, tag));
+            else if (tag == "lines" || tag == "linestrips")
+                note(fmt::format("geometry '{}': <{}> skipped (only surfaces are rendered)", g.name, tag));
         }
         for (LocalGroup& grp : g.groups) {
             grp.weld = {};  // only needed while parsing
@@ -596,6 +596,33 @@ void Loader::parse_primitive(pugi::xml_node prim, LocalGeometry& g) {
         for (uint32_t v : vcount) {
             emit(p.data() + at, v);
             at += size_t(v) * stride;
+        }
+    } else if (tag == "trifans" || tag == "tristrips") {
+        // One <p> per fan or strip (COLLADA 1.4.1, 5-121 and 5-123). A fan is a polygon's
+        // triangulation from its first corner, as emit makes; a strip's triangle k is
+        // corners k, k+1, k+2, every other one reversed so that all keep the first's
+        // winding. Triangles that repeat a position (a strip's restart) are dropped.
+        std::vector<uint32_t> tri(size_t(3) * stride);
+        for (pugi::xml_node pe : prim.children("p")) {
+            read_uints(pe, p);
+            if (p.size() % stride != 0)
+                fail(pe, fmt::format("holds {} indices, not a multiple of {} inputs", p.size(), stride));
+            const uint32_t n = uint32_t(p.size() / stride);
+            if (tag == "trifans") {
+                emit(p.data(), n);
+                continue;
+            }
+            if (n < 3) {
+                ++skipped;
+                continue;
+            }
+            for (uint32_t k = 0; k + 2 < n; ++k) {
+                const uint32_t order[3] = {k % 2 ? k + 1 : k, k % 2 ? k : k + 1, k + 2};
+                for (int j = 0; j < 3; ++j)
+                    std::copy_n(p.data() + size_t(order[j]) * stride, stride, tri.data() + size_t(j) * stride);
+                const uint32_t a = tri[vertex_off], b = tri[stride + vertex_off], c2 = tri[2 * stride + vertex_off];
+                if (a != b && b != c2 && a != c2) emit(tri.data(), 3);
+            }
         }
     } else {  // polygons: one <p> per polygon
         for (pugi::xml_node pe : prim.children()) {

@@ -361,6 +361,37 @@ TEST(ColladaPrimitives, PolygonsElementIsTriangulatedToo) {
     ASSERT_EQ(s.num_triangles(), 2u);
 }
 
+// <trifans> and <tristrips>: one <p> per fan or strip. A fan is the polygon's fan; a
+// strip alternates its triangles' corner order so that all face the same way, and a
+// triangle repeating a position (a strip's restart) is dropped.
+TEST(ColladaPrimitives, FansAndStripsTriangulate) {
+    const std::string pos = "0 0 0 1 0 0 1 1 0 0 1 0  2 0 0 3 0 0 2 1 0 3 1 0 4 0 0";
+    const std::string fans = geometry("g", pos, 9, "<trifans count=\"1\">" + inputs("g") + "<p>0 1 2 3</p></trifans>");
+    const Scene f = load(dae(geometries(fans), node("n", "", "g")));
+    ASSERT_EQ(f.meshes.size(), 1u);
+    EXPECT_EQ(f.meshes[0].indices, (std::vector<uint32_t>{0, 1, 2, 0, 2, 3}));
+    // Strip 4 5 6 7 8 with a restart (7 repeated) in its middle.
+    const std::string strips = geometry("g", pos, 9,
+                                        "<tristrips count=\"2\">" + inputs("g") +
+                                            "<p>4 5 6 7</p><p>5 8 7 7 6</p></tristrips>");
+    const Scene s = load(dae(geometries(strips), node("n", "", "g")));
+    ASSERT_EQ(s.meshes.size(), 1u);
+    const auto& m = s.meshes[0];
+    ASSERT_EQ(m.num_triangles(), 3u) << "2 from the first strip, 1 from the second (two repeat corner 7)";
+    // Every triangle faces +z, as the first of each strip does.
+    for (uint32_t t = 0; t < m.num_triangles(); ++t) {
+        const Vec3f a = m.positions[m.indices[3 * t]], b = m.positions[m.indices[3 * t + 1]],
+                    c = m.positions[m.indices[3 * t + 2]];
+        EXPECT_GT(accel::cross(b - a, c - a).z, 0.0f) << "triangle " << t;
+    }
+    EXPECT_FALSE(has_note(s, "not supported"));
+    const Scene lines = load(dae(geometries(geometry("g", pos, 9,
+                                                     "<lines count=\"1\">" + inputs("g") + "<p>0 1</p></lines>"
+                                                     "<triangles count=\"1\">" + inputs("g") + "<p>0 1 2</p></triangles>")),
+                                 node("n", "", "g")));
+    EXPECT_TRUE(has_note(lines, "<lines> skipped"));
+}
+
 TEST(ColladaPrimitives, CornersSharingPositionAndNormalAreWelded) {
     // Two triangles over a quad, sharing the 0-2 edge, one normal: 4 vertices, shared edge.
     const std::string same = geometry("g", "0 0 0 1 0 0 1 1 0 0 1 0", 4,
