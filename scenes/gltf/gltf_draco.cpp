@@ -75,7 +75,7 @@ namespace {
 
 /// One open JSON container while scanning.
 struct Frame {
-    bool object;
+    bool object = false;
     std::string name;        // key under which the parent holds it ("" in arrays)
     bool expect_key = false;
     std::string key;         // last key read in this object
@@ -110,7 +110,9 @@ size_t hide_draco_indices(unsigned char* s, size_t n) {
         } else if (c == '{' || c == '[') {
             std::string name;
             if (!stack.empty() && stack.back().object) name = stack.back().key;
-            stack.push_back(Frame{c == '{', name});
+            stack.emplace_back();
+            stack.back().object = c == '{';
+            stack.back().name = std::move(name);
             stack.back().expect_key = c == '{';
             if (stack.size() > 64) return renamed;  // the loader refuses such depth anyway
         } else if (c == '}' || c == ']') {

@@ -49,7 +49,9 @@ TEST(RayRecord, TheRecorderKeepsTheFirstRaysOfEachKindAndTracesAsItsBackend) {
         const bool a = rec.intersect(cam.rays[i], h_rec, st_rec);
         const bool b = c.accel->intersect(cam.rays[i], h_ref, st_ref);
         EXPECT_EQ(a, b);
-        if (a && b) EXPECT_EQ(h_rec.t, h_ref.t);
+        if (a && b) {
+            EXPECT_EQ(h_rec.t, h_ref.t);
+        }
         EXPECT_EQ(rec.occluded(shadow.rays[i], st_rec), c.accel->occluded(shadow.rays[i], st_ref));
         EXPECT_EQ(st_rec.prim_tests, st_ref.prim_tests);
     });
