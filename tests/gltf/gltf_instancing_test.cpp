@@ -103,7 +103,8 @@ std::string list(const double* v, int n) {
     char buf[64];
     for (int k = 0; k < n; ++k) {
         std::snprintf(buf, sizeof buf, "%.17g", v[k]);
-        o += (k ? "," : "") + std::string(buf);
+        if (k) o += ",";  // not "," + std::string: GCC 12's -Wrestrict misfires on it
+        o += buf;
     }
     return o + "]";
 }
