@@ -327,6 +327,27 @@ struct UvTransform {
     }
 };
 
+/// A material's one uv set and transform: those of the first texture it reads (base
+/// colour, emissive, then the data maps). A later texture whose set or transform differs
+/// is sampled with them, and `share` says so in a note naming the first.
+struct MaterialUv {
+    int set = -1;  ///< -1: no texture yet
+    UvTransform xform;
+    std::string owner;  ///< the slot that set them
+    template <class Note>
+    void share(const std::string& mdesc, const std::string& slot, int tc, const UvTransform& xf, Note&& note) {
+        if (set < 0) {
+            set = tc, xform = xf, owner = slot;
+        } else if (set != tc) {
+            note(mdesc + ": " + slot + " uses TEXCOORD_" + std::to_string(tc) + " but " + owner + " TEXCOORD_" +
+                 std::to_string(set) + "; both sampled with the latter");
+        } else if (xf != xform) {
+            note(mdesc + ": " + slot + " has another KHR_texture_transform than " + owner +
+                 "; both sampled with the latter");
+        }
+    }
+};
+
 struct DecodedPrimitive {
     bool skip = false;
     std::vector<Vec3f> positions;
@@ -436,8 +457,7 @@ private:
     /// Image `ii` decoded for a slot that reads `channels` (see decode_texture); sRGB
     /// colour for base colour and emissive, linear data otherwise.
     uint32_t decoded_texture(int ii, const std::string& user, const char* channels = "RGBA", bool srgb = true);
-    void read_pbr(const tinygltf::Material& g, const std::string& mdesc, Material& out, int& uv_set,
-                  UvTransform& uv_xform);
+    void read_pbr(const tinygltf::Material& g, const std::string& mdesc, Material& out, MaterialUv& uv);
 
     std::string name_;
     const tinygltf::Model& m_;
@@ -1006,8 +1026,8 @@ uint32_t Loader::material_index(int mi, const std::string& user) {
     auto found = materials_.find(mi);
     if (found != materials_.end()) return found->second;
     Material out;
-    int uv_set = -1;
-    UvTransform uv_xform;
+    MaterialUv uv;
+    const auto say = [&](const std::string& s) { note(s); };
     if (mi == -1) {
         out.name = "default";  // glTF default material is white; the project default is grey 0.8
     } else {
@@ -1042,8 +1062,8 @@ uint32_t Loader::material_index(int mi, const std::string& user) {
 
         if (pbr.baseColorTexture.texCoord < 0 || g.emissiveTexture.texCoord < 0)
             fail(mdesc + ": negative texCoord");
-        // One uv set and transform per material (the base colour's); an emissive texture
-        // that differs is sampled with them, and said so.
+        // One uv set and transform per material (MaterialUv): the base colour's, else the
+        // emissive texture's.
         int base_uv = pbr.baseColorTexture.texCoord, emissive_uv = g.emissiveTexture.texCoord;
         const UvTransform base_xf = texture_transform(pbr.baseColorTexture, mdesc + " baseColorTexture", base_uv);
         const UvTransform emissive_xf = texture_transform(g.emissiveTexture, mdesc + " emissiveTexture", emissive_uv);
@@ -1051,8 +1071,7 @@ uint32_t Loader::material_index(int mi, const std::string& user) {
             int img = texture_image(pbr.baseColorTexture.index, mdesc + " baseColorTexture");
             check_sampler(pbr.baseColorTexture.index);
             out.albedo_texture = decoded_texture(img, mdesc + " baseColorTexture");
-            uv_set = base_uv;
-            uv_xform = base_xf;
+            uv.share(mdesc, "baseColorTexture", base_uv, base_xf, say);
         }
         if (g.emissiveTexture.index >= 0) {
             int img = texture_image(g.emissiveTexture.index, mdesc + " emissiveTexture");
@@ -1060,15 +1079,7 @@ uint32_t Loader::material_index(int mi, const std::string& user) {
             if (out.is_emissive()) {
                 check_sampler(g.emissiveTexture.index);
                 out.emission_texture = decoded_texture(img, mdesc + " emissiveTexture");
-                if (uv_set >= 0 && uv_set != emissive_uv)
-                    note(mdesc + ": emissiveTexture uses TEXCOORD_" + std::to_string(emissive_uv) +
-                         " but baseColorTexture TEXCOORD_" + std::to_string(uv_set) + "; both sampled with the latter");
-                else if (uv_set >= 0 && emissive_xf != uv_xform)
-                    note(mdesc + ": emissiveTexture has another KHR_texture_transform than baseColorTexture; both sampled with the latter");
-                if (uv_set < 0) {
-                    uv_set = emissive_uv;
-                    uv_xform = emissive_xf;
-                }
+                uv.share(mdesc, "emissiveTexture", emissive_uv, emissive_xf, say);
             }
         }
         if (out.albedo_texture != kNoTexture && out.is_emissive())
@@ -1083,7 +1094,7 @@ uint32_t Loader::material_index(int mi, const std::string& user) {
             // is only a fallback for viewers without the extension, so none is read.
             out.unlit = true;
         } else {
-            read_pbr(g, mdesc, out, uv_set, uv_xform);
+            read_pbr(g, mdesc, out, uv);
         }
         // glTF 2.0 spec 3.9.4 (Alpha Coverage): alpha is baseColorFactor's times the base
         // colour texture's; alphaCutoff counts for MASK alone.
@@ -1109,8 +1120,8 @@ uint32_t Loader::material_index(int mi, const std::string& user) {
     const bool textured = out.albedo_texture != kNoTexture || out.emission_texture != kNoTexture ||
                           out.metallic_roughness_texture != kNoTexture || out.normal_texture != kNoTexture ||
                           out.transmission_texture != kNoTexture;
-    material_uv_set_.push_back(textured ? uv_set : -1);
-    material_uv_xform_.push_back(uv_xform);
+    material_uv_set_.push_back(textured ? uv.set : -1);
+    material_uv_xform_.push_back(uv.xform);
     materials_[mi] = idx;
     return idx;
 }
@@ -1119,8 +1130,7 @@ uint32_t Loader::material_index(int mi, const std::string& user) {
 /// with KHR_materials_transmission and KHR_materials_ior. A material whose metallic and
 /// transmission are zero, untextured, stays Diffuse (Lambert), so a plain diffuse file
 /// keeps the diffuse integrator's speed; anything else is BsdfKind::MetallicRoughness.
-void Loader::read_pbr(const tinygltf::Material& g, const std::string& mdesc, Material& out, int& uv_set,
-                      UvTransform& uv_xform) {
+void Loader::read_pbr(const tinygltf::Material& g, const std::string& mdesc, Material& out, MaterialUv& uv) {
     const auto& pbr = g.pbrMetallicRoughness;
     auto factor = [&](double v, const char* what) {
         if (!std::isfinite(v) || v < 0 || v > 1) fail(mdesc + ": " + what + " must be in [0, 1]");
@@ -1128,9 +1138,8 @@ void Loader::read_pbr(const tinygltf::Material& g, const std::string& mdesc, Mat
     };
     out.metallic = factor(pbr.metallicFactor, "metallicFactor");
     out.roughness = factor(pbr.roughnessFactor, "roughnessFactor");
-    // One uv set and transform per material, as for the base colour and emission: the
-    // first texture's (its KHR_texture_transform and texCoord override included); one
-    // that differs is sampled with them, and said so.
+    // A data map shares the material's uv set and transform (MaterialUv) with its own
+    // KHR_texture_transform and texCoord override.
     auto data_texture = [&](const tinygltf::TextureInfo& ti, const char* slot, const char* channels) {
         if (ti.texCoord < 0) fail(mdesc + ": negative texCoord");
         const int img = texture_image(ti.index, mdesc + " " + slot);
@@ -1146,15 +1155,7 @@ void Loader::read_pbr(const tinygltf::Material& g, const std::string& mdesc, Mat
             return kNoTexture;
         }
         check_sampler(ti.index);
-        if (uv_set < 0) {
-            uv_set = tc;
-            uv_xform = xf;
-        } else if (uv_set != tc) {
-            note(mdesc + ": " + slot + " uses TEXCOORD_" + std::to_string(tc) + " but another texture TEXCOORD_" +
-                 std::to_string(uv_set) + "; both sampled with the latter");
-        } else if (xf != uv_xform) {
-            note(mdesc + ": " + slot + " has another KHR_texture_transform than another texture; both sampled with the latter's");
-        }
+        uv.share(mdesc, slot, tc, xf, [&](const std::string& s) { note(s); });
         return decoded_texture(img, mdesc + " " + slot, channels, false);
     };
     if (pbr.metallicRoughnessTexture.index >= 0)
