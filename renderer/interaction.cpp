@@ -60,14 +60,16 @@ void Placement::point(const Vec3f& p, const Vec3f& p_err, Vec3f& out, Vec3f& out
 
 namespace {
 
-/// The hit's texture coordinates, interpolated from the mesh's, and for textured
-/// materials the triangle's dp/du and dp/dv from the mesh's own positions (pbrt-v4
-/// Triangle::InteractionFromIntersection: the 2x2 system of edge vectors against uv
-/// differences). An instance's are those of its prototype's triangle, carried by L.
+/// The hit's texture coordinates and vertex colour, interpolated from the mesh's, and
+/// for textured materials the triangle's dp/du and dp/dv from the mesh's own positions
+/// (pbrt-v4 Triangle::InteractionFromIntersection: the 2x2 system of edge vectors against
+/// uv differences). An instance's are those of its prototype's triangle, carried by L.
 inline void mesh_uv(const scenes::Scene& scene, const scenes::Mesh& m, const uint32_t* idx, float u, float v,
                     Interaction& it) {
-    if (m.uvs.empty()) return;
     const float w0 = 1.0f - u - v;
+    if (!m.colors.empty()) [[unlikely]]
+        it.color = m.colors[idx[0]] * w0 + m.colors[idx[1]] * u + m.colors[idx[2]] * v;
+    if (m.uvs.empty()) return;
     const Vec2f a = m.uvs[idx[0]], b = m.uvs[idx[1]], c = m.uvs[idx[2]];
     it.uv = {a.x * w0 + b.x * u + c.x * v, a.y * w0 + b.y * u + c.y * v};
     if (it.material < scene.materials.size() && is_textured(scene.materials[it.material])) {
@@ -127,6 +129,7 @@ void make_interaction(const scenes::Scene& scene, const SceneGeometry& geometry,
                       const accel::Hit& hit, Interaction& it) {
     // Every field is written: those a hit may leave at their defaults first.
     it.uv = Vec2f{};
+    it.color = Vec3f(1.0f);
     it.dpdu = it.dpdv = Vec3f(0.0f);
     it.lod = kNoFootprint;
     it.filter = TextureFilter::Nearest;

@@ -21,6 +21,9 @@ struct Interaction {
     Vec3f ng;       ///< unit geometric normal (triangle winding / sphere outward)
     Vec3f ns;       ///< unit shading normal: interpolated file normals, else ng
     Vec2f uv;       ///< texture coordinates if the mesh stores them
+    /// The vertex colour at the hit (scenes::Mesh::colors, glTF COLOR_0), which multiplies
+    /// the base colour; white where the mesh has none.
+    Vec3f color{1.0f};
     /// d p / d u and d p / d v of the triangle's texture mapping, only for textured
     /// materials (a normal map's tangent frame; the texture footprint); zero otherwise.
     Vec3f dpdu{0.0f}, dpdv{0.0f};
@@ -43,6 +46,13 @@ Texel4 texel4(const scenes::Scene& scene, uint32_t texture, const Interaction& i
 inline Vec3f texel(const scenes::Scene& scene, uint32_t texture, const Interaction& it) {
     if (texture == scenes::kNoTexture) return Vec3f(1.0f);
     return texel4(scene, texture, it).rgb();
+}
+
+/// The base colour at a hit: the material's albedo times its texture and the vertex
+/// colour (glTF 2.0, 3.9.2: baseColorFactor x baseColorTexture x COLOR_0). Every BSDF,
+/// AOV and unlit surface that shows the base colour reads it here.
+inline Vec3f base_colour(const scenes::Scene& scene, const scenes::Material& m, const Interaction& it) {
+    return m.albedo * texel(scene, m.albedo_texture, it) * it.color;
 }
 
 /// Does material m read any texture?

@@ -11,17 +11,22 @@
 namespace renderer {
 
 float surface_alpha(const AlphaTest& a, uint32_t prim, float u, float v) {
-    if (!a.texture) return a.factor;
+    const scenes::Mesh& m = *a.mesh;
+    float vertex = 1.0f;
+    if (!m.alphas.empty()) {
+        const uint32_t* idx = &m.indices[3 * size_t(prim)];
+        vertex = m.alphas[idx[0]] * (1.0f - u - v) + m.alphas[idx[1]] * u + m.alphas[idx[2]] * v;
+    }
+    if (!a.texture) return a.factor * vertex;
     // The uv of make_interaction (interaction.cpp), by the same arithmetic.
     Vec2f uv{0.0f, 0.0f};
-    const scenes::Mesh& m = *a.mesh;
     if (!m.uvs.empty()) {
         const uint32_t* idx = &m.indices[3 * size_t(prim)];
         const Vec2f p = m.uvs[idx[0]], q = m.uvs[idx[1]], r = m.uvs[idx[2]];
         const float w0 = 1.0f - u - v;
         uv = {p.x * w0 + q.x * u + r.x * v, p.y * w0 + q.y * u + r.y * v};
     }
-    return a.factor * lookup_alpha(*a.texture, uv);
+    return a.factor * lookup_alpha(*a.texture, uv) * vertex;
 }
 
 namespace {
@@ -76,8 +81,10 @@ SceneGeometry::SceneGeometry(const scenes::Scene& scene) : scene_(scene) {
             // only where some texel is not opaque), so the factor alone decides.
             if (mat.albedo_texture < scene.textures.size() && scene.textures[mat.albedo_texture].slot[3] >= 0)
                 a.texture = &scene.textures[mat.albedo_texture];
-            const bool cuts = a.mode == scenes::AlphaMode::Mask    ? a.texture || a.factor < a.cutoff
-                              : a.mode == scenes::AlphaMode::Blend ? a.texture || a.factor < 1.0f
+            // Vertex alpha (scenes::Mesh::alphas) is stored only where some vertex is below 1.
+            const bool varies = a.texture || !m.alphas.empty();
+            const bool cuts = a.mode == scenes::AlphaMode::Mask    ? varies || a.factor < a.cutoff
+                              : a.mode == scenes::AlphaMode::Blend ? varies || a.factor < 1.0f
                                                                    : false;
             if (cuts) view.filter = alpha_filter, view.filter_user = &a;
         }

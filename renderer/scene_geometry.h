@@ -27,11 +27,13 @@ struct AlphaTest {
 };
 
 /// The surface's alpha at barycentrics (u, v) of triangle `prim`: factor times the
-/// texture's alpha at the interpolated uv, read bilinearly from level 0. Level 0,
-/// because a shadow or bounce ray has no footprint, and every ray must see the same
-/// cut-out (camera rays and the shadow rays that test the same leaves); bilinear rather
-/// than nearest, so that the alpha >= cutoff contour is the smooth curve glTF viewers
-/// draw with a LINEAR magnification filter rather than a staircase of texels.
+/// texture's alpha at the interpolated uv, read from level 0, times the interpolated
+/// vertex alpha (COLOR_0's) where the mesh has one. Level 0, because a shadow or bounce
+/// ray has no footprint, and every ray must see the same cut-out (camera rays and the
+/// shadow rays that test the same leaves); bilinear, so that the alpha >= cutoff contour
+/// is the smooth curve glTF viewers draw with a LINEAR magnification filter rather than a
+/// staircase of texels, except for a NEAREST sampler's texture, whose viewers draw the
+/// staircase (lookup_alpha).
 float surface_alpha(const AlphaTest& a, uint32_t prim, float u, float v);
 
 /// The uniform number in [0, 1) that decides a BLEND hit: a hash of the ray's origin and

@@ -38,10 +38,21 @@ namespace {
 using scenes::Texture;
 using scenes::TexelFormat;
 
-/// uv wrapped into [0, 1]; a non-finite coordinate reads the origin.
-inline float wrap01(float x) {
-    const float f = x - std::floor(x);
-    return std::isfinite(f) ? f : 0.0f;
+using scenes::TextureWrap;
+
+/// A uv coordinate brought into [0, 1] by the sampler's wrap (glTF 2.0, 3.8.4.6, after
+/// OpenGL's REPEAT, CLAMP_TO_EDGE and MIRRORED_REPEAT); a non-finite coordinate reads the
+/// origin.
+inline float wrap_coord(float x, TextureWrap w) {
+    if (w == TextureWrap::Repeat) [[likely]] {
+        const float f = x - std::floor(x);
+        return std::isfinite(f) ? f : 0.0f;
+    }
+    if (!std::isfinite(x)) return 0.0f;
+    if (w == TextureWrap::ClampToEdge) return std::clamp(x, 0.0f, 1.0f);
+    // Period 2: [0, 1] as it is, [1, 2] reflected.
+    const float f = x - 2.0f * std::floor(0.5f * x);
+    return f <= 1.0f ? f : std::max(0.0f, 2.0f - f);
 }
 
 /// Stored channels of one texel, weighted, added to acc. The first NCOL stored channels
@@ -78,23 +89,31 @@ inline void nearest(const Texture& t, uint32_t level, float u, float v, float w,
     add_texel<F, NC, NCOL>(t.data.data() + l.offset + (size_t(y) * l.width + x) * (NC * kBytes(F)), w, acc);
 }
 
-/// The four texel centres around uv in a level, wrapping at the edges, and uv's place
-/// between them.
+/// The four texel centres around uv in a level, and uv's place between them. Across an
+/// edge the neighbour is the opposite edge's texel for a repeating axis and the edge
+/// texel itself for a clamped or mirrored one (the mirror image of the texel beside the
+/// edge is that texel).
 struct Corners {
     int x0, y0, x1, y1;
     float fx, fy;
 };
-[[gnu::always_inline]] inline Corners corners(const Texture::Level& l, float u, float v) {
+/// One axis: i0 in [-1, n - 1] (from a coordinate in [0, 1]) to the pair of texels.
+[[gnu::always_inline]] inline void edge_pair(int& i0, int& i1, int n, TextureWrap w) {
+    i0 = std::min(i0, n - 1);
+    if (w == TextureWrap::Repeat) [[likely]] {
+        i1 = i0 + 1 == n ? 0 : i0 + 1;
+        if (i0 < 0) i0 += n;
+    } else {
+        i1 = std::min(i0 + 1, n - 1);
+        i0 = std::max(i0, 0);
+    }
+}
+[[gnu::always_inline]] inline Corners corners(const Texture& t, const Texture::Level& l, float u, float v) {
     const float x = u * float(l.width) - 0.5f, y = v * float(l.height) - 0.5f;
     const float x0f = std::floor(x), y0f = std::floor(y);
     Corners c{int(x0f), int(y0f), 0, 0, x - x0f, y - y0f};
-    // u in [0, 1] puts x0 in [-1, width - 1].
-    if (c.x0 < 0) c.x0 += int(l.width);
-    if (c.y0 < 0) c.y0 += int(l.height);
-    c.x0 = std::min(c.x0, int(l.width) - 1);
-    c.y0 = std::min(c.y0, int(l.height) - 1);
-    c.x1 = c.x0 + 1 == int(l.width) ? 0 : c.x0 + 1;
-    c.y1 = c.y0 + 1 == int(l.height) ? 0 : c.y0 + 1;
+    edge_pair(c.x0, c.x1, int(l.width), t.wrap_s);
+    edge_pair(c.y0, c.y1, int(l.height), t.wrap_t);
     return c;
 }
 
@@ -104,7 +123,7 @@ template <TexelFormat F, int NC, int NCOL>
 [[gnu::always_inline]] inline void bilinear(const Texture& t, uint32_t level, float u, float v, float w, float* acc) {
     constexpr size_t tb = NC * kBytes(F);
     const Texture::Level& l = t.levels[level];
-    const Corners c = corners(l, u, v);
+    const Corners c = corners(t, l, u, v);
     const uint8_t* base = t.data.data() + l.offset;
     const size_t row = size_t(l.width) * tb;
     const uint8_t* r0 = base + size_t(c.y0) * row;
@@ -138,10 +157,20 @@ inline float level_choice(float u, float v) {
     return float(a >> 8) * 0x1p-24f;
 }
 
+/// Whether a footprint of `lod` (uv_lod) covers less than a texel of level 0 along the
+/// image's longer side: OpenGL's magnification (lambda <= 0, the specification's 3.9.11),
+/// where a magFilter NEAREST sampler reads one texel. A lookup without a footprint
+/// (kNoFootprint) is a point, and so magnified.
+inline bool magnified(const Texture& t, float lod) {
+    const Texture::Level& l = t.levels[0];
+    // floor(log2) of the longer side, as mip_level counts a pyramid's levels.
+    return lod + float(31 - __builtin_clz(std::max(l.width, l.height) | 1u)) <= 0.0f;
+}
+
 /// One filtered lookup at wrapped (u, v), with the texel layout known at compile time.
 template <TexelFormat F, int NC, int NCOL>
 [[gnu::always_inline]] inline void filter(const Texture& t, float u, float v, float lod, TextureFilter f, float* acc) {
-    if (f == TextureFilter::Nearest) {
+    if (f == TextureFilter::Nearest || (t.magnify_nearest && magnified(t, lod))) {
         nearest<F, NC, NCOL>(t, 0, u, v, 1.0f, acc);
         return;
     }
@@ -249,7 +278,7 @@ Texel4 fetch(const Texture& t, uint32_t level, uint32_t x, uint32_t y) {
 Texel4 lookup(const Texture& t, const Vec2f& uv, float lod, TextureFilter f) {
     if (t.empty()) return Texel4{1.0f, 1.0f, 1.0f, 1.0f};
     float acc[4] = {0, 0, 0, 0};
-    const float u = wrap01(uv.x), v = wrap01(uv.y);
+    const float u = wrap_coord(uv.x, t.wrap_s), v = wrap_coord(uv.y, t.wrap_t);
     if (!dispatch(t, [&]<TexelFormat F, int NC, int NCOL>() { filter<F, NC, NCOL>(t, u, v, lod, f, acc); }))
         return Texel4{1.0f, 1.0f, 1.0f, 1.0f};
     return to_source_channels(t, acc);
@@ -258,7 +287,14 @@ Texel4 lookup(const Texture& t, const Vec2f& uv, float lod, TextureFilter f) {
 float lookup_alpha(const Texture& t, const Vec2f& uv) {
     if (t.empty() || t.slot[3] < 0) return 1.0f;
     const Texture::Level& l = t.levels[0];
-    const Corners c = corners(l, wrap01(uv.x), wrap01(uv.y));
+    const float u = wrap_coord(uv.x, t.wrap_s), v = wrap_coord(uv.y, t.wrap_t);
+    if (t.magnify_nearest) [[unlikely]] {
+        // nearest()'s texel, as a NEAREST sampler's colour reads it at magnification.
+        const uint32_t x = std::min(l.width - 1, uint32_t(u * float(l.width)));
+        const uint32_t y = std::min(l.height - 1, uint32_t(v * float(l.height)));
+        return fetch(t, 0, x, y).a;
+    }
+    const Corners c = corners(t, l, u, v);
     const size_t tb = t.texel_bytes(), at = size_t(t.slot[3]) * scenes::texel_format_bytes(t.format);
     const uint8_t* base = t.data.data() + l.offset + at;
     const auto alpha = [&](int x, int y) -> float {
@@ -327,7 +363,7 @@ bool ZeroTiles::zero(const Texture& t, const Vec2f& uv, float lod, TextureFilter
     // (the rounding of a level's size down only moves them toward uv).
     const float level = is_mip_filter(f) ? mip_level(t, lod) : 0.0f;
     const float reach = 2.5f * float(1u << std::min(30, int(std::ceil(level)))) + 1.0f;
-    const float cx = wrap01(uv.x) * float(l.width), cy = wrap01(uv.y) * float(l.height);
+    const float cx = wrap_coord(uv.x, t.wrap_s) * float(l.width), cy = wrap_coord(uv.y, t.wrap_t) * float(l.height);
     const float x0 = cx - reach, x1 = cx + reach, y0 = cy - reach, y1 = cy + reach;
     // A support that wraps round an edge: not worth the split.
     if (!(x0 >= 0.0f && y0 >= 0.0f && x1 < float(l.width) && y1 < float(l.height))) return false;

@@ -66,13 +66,15 @@ struct Texel4 {
 inline constexpr float kNoFootprint = -1e30f;
 float uv_lod(const UvFootprint& duv);
 
-/// Filtered lookup at uv (wrapping, as glTF's default REPEAT sampler) for a footprint of
-/// `lod` (uv_lod). Nearest and bilinear read level 0 and ignore it.
+/// Filtered lookup at uv (wrapped by the texture's sampler, Texture::wrap_s / wrap_t) for
+/// a footprint of `lod` (uv_lod). Nearest and bilinear read level 0 and ignore it, except
+/// that a Texture::magnify_nearest texture reads its nearest texel wherever the footprint
+/// is under a texel.
 Texel4 lookup(const scenes::Texture& t, const Vec2f& uv, float lod, TextureFilter filter);
 Texel4 lookup(const scenes::Texture& t, const Vec2f& uv, const UvFootprint& duv, TextureFilter filter);
 
-/// lookup(t, uv, ..., Bilinear).a, bit for bit, reading the alpha channel alone (1 where
-/// the texture stores none): the alpha test of masked geometry, called per candidate hit
+/// lookup(t, uv, kNoFootprint, Bilinear).a, bit for bit, reading the alpha channel alone
+/// (1 where the texture stores none): the alpha test of masked geometry, called per candidate hit
 /// (renderer/scene_geometry.h), where decoding the colour channels too cost the time.
 float lookup_alpha(const scenes::Texture& t, const Vec2f& uv);
 

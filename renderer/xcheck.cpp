@@ -137,7 +137,8 @@ bool hit_is_marginal(const accel::Ray& ray, const RayOutcome& h, const SceneGeom
             if (a.mode == scenes::AlphaMode::Blend) return true;
             if (a.mode == scenes::AlphaMode::Mask) {
                 float slack = 1e-3f;
-                if (a.texture && !a.mesh->uvs.empty()) {
+                const bool textured = a.texture && !a.mesh->uvs.empty();
+                if (textured || !a.mesh->alphas.empty()) {
                     // In world space, as the hit point below is.
                     accel::Vec3f v[3];
                     hit_triangle(g, h, v);
@@ -148,12 +149,18 @@ bool hit_is_marginal(const accel::Ray& ray, const RayOutcome& h, const SceneGeom
                     const float mag = std::max({std::abs(p.x), std::abs(p.y), std::abs(p.z)});
                     const float d_bary = 8.0f * 0x1p-24f * mag * longest / std::max(area2, 1e-30f);
                     const uint32_t* idx = &a.mesh->indices[3 * size_t(h.prim)];
-                    float span = 0;
-                    for (int k = 1; k < 3; ++k) {
-                        const accel::Vec2f q = a.mesh->uvs[idx[k]], o = a.mesh->uvs[idx[0]];
-                        span = std::max({span, std::abs(q.x - o.x), std::abs(q.y - o.y)});
+                    if (textured) {
+                        float span = 0;
+                        for (int k = 1; k < 3; ++k) {
+                            const accel::Vec2f q = a.mesh->uvs[idx[k]], o = a.mesh->uvs[idx[0]];
+                            span = std::max({span, std::abs(q.x - o.x), std::abs(q.y - o.y)});
+                        }
+                        slack += d_bary * span * float(std::max(a.texture->width, a.texture->height));
                     }
-                    slack += d_bary * span * float(std::max(a.texture->width, a.texture->height));
+                    // Vertex alpha (COLOR_0's) changes by at most its span over the triangle.
+                    if (!a.mesh->alphas.empty())
+                        slack += d_bary * std::max({std::abs(a.mesh->alphas[idx[1]] - a.mesh->alphas[idx[0]]),
+                                                    std::abs(a.mesh->alphas[idx[2]] - a.mesh->alphas[idx[0]])});
                 }
                 if (std::abs(surface_alpha(a, h.prim, h.u, h.v) - a.cutoff) < slack) return true;
             }

@@ -84,6 +84,12 @@ inline constexpr size_t texel_format_bytes(TexelFormat f) {
     return f == TexelFormat::U8 ? 1 : f == TexelFormat::F32 ? 4 : 2;
 }
 
+/// How a texture continues outside [0, 1] along one axis (glTF sampler wrapS / wrapT):
+/// tiled, its edge texels stretched, or tiled with every other copy mirrored. The same
+/// rule gives a bilinear lookup's neighbour across an edge: the opposite edge's texel when
+/// repeating, the edge texel itself otherwise.
+enum class TextureWrap : uint8_t { Repeat, ClampToEdge, MirroredRepeat };
+
 /// An image at its source's precision, holding only the channels a material reads, with
 /// its MIP pyramid (renderer/texture.h filters it). Row 0 is at the top of each level.
 struct Texture {
@@ -97,6 +103,11 @@ struct Texture {
     /// The stored R, G, B channels are sRGB-encoded 8-bit values, decoded on lookup (base
     /// colour and emissive); alpha and data textures are linear.
     bool srgb = false;
+    /// The sampler's wrap along u (s) and v (t); glTF's default repeats.
+    TextureWrap wrap_s = TextureWrap::Repeat, wrap_t = TextureWrap::Repeat;
+    /// glTF magFilter NEAREST: where a texel is larger than the lookup's footprint, the
+    /// nearest texel of level 0 rather than a blend of four (pixel art, labels).
+    bool magnify_nearest = false;
     struct Level {
         uint32_t width = 0, height = 0;
         uint64_t offset = 0;  ///< bytes into `data`
@@ -214,6 +225,12 @@ struct Mesh {
     std::vector<Vec3f> normals;
     /// Optional per-vertex texture coordinates, stored only when a material uses a texture.
     std::vector<Vec2f> uvs;
+    /// Optional per-vertex colours (glTF COLOR_0, linear RGB), which multiply the
+    /// material's base colour; stored only when some vertex is not white.
+    std::vector<Vec3f> colors;
+    /// Optional per-vertex alpha (COLOR_0's fourth component), which multiplies the base
+    /// alpha; stored only for a MASK or BLEND material with some vertex not opaque.
+    std::vector<float> alphas;
     uint32_t material = 0;
 
     uint32_t num_vertices() const {
@@ -379,7 +396,8 @@ inline void flatten_instances(Scene& scene, uint64_t max_elements = uint64_t(1) 
         for (size_t p = 0; p < scene.prototypes.size(); ++p)
             for (uint32_t k = 0; k < scene.prototypes[p].num_meshes; ++k) {
                 const Mesh& m = scene.meshes[scene.prototypes[p].first_mesh + k];
-                per[p] += m.positions.size() + m.indices.size() + m.normals.size() + m.uvs.size();
+                per[p] += m.positions.size() + m.indices.size() + m.normals.size() + m.uvs.size() +
+                          m.colors.size() + m.alphas.size();
             }
         for (const Mesh& m : scene.meshes) elements += m.positions.size() + m.indices.size();
         for (const Instance& i : scene.instances) elements += per[i.prototype];
@@ -405,6 +423,8 @@ inline void flatten_instances(Scene& scene, uint64_t max_elements = uint64_t(1) 
             if (m.det() < 0.0)
                 for (size_t t = 0; t + 2 < c.indices.size(); t += 3) std::swap(c.indices[t + 1], c.indices[t + 2]);
             c.uvs = src.uvs;
+            c.colors = src.colors;
+            c.alphas = src.alphas;
             c.positions.reserve(src.positions.size());
             for (uint32_t v = 0; v < src.num_vertices(); ++v) c.positions.push_back(m.point(src.positions[v]));
             c.pad_positions();

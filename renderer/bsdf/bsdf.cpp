@@ -12,7 +12,7 @@ Bsdf make_bsdf(const scenes::Scene& scene, const scenes::Material& m, const Inte
     using scenes::BsdfKind;
     switch (m.bsdf) {
         case BsdfKind::Diffuse:
-            return Bsdf(Lambert{m.albedo * texel(scene, m.albedo_texture, it)});
+            return Bsdf(Lambert{renderer::base_colour(scene, m, it)});
         case BsdfKind::Mirror:
             return Bsdf(Mirror{m.reflectance});
         case BsdfKind::Glass:
@@ -20,7 +20,7 @@ Bsdf make_bsdf(const scenes::Scene& scene, const scenes::Material& m, const Inte
         case BsdfKind::Microfacet:
             return Bsdf(RoughConductor{Beckmann{std::max(1e-3f, m.alpha)}, m.eta, m.k});
         case BsdfKind::MetallicRoughness: {
-            const Vec3f base = base_colour ? *base_colour : m.albedo * texel(scene, m.albedo_texture, it);
+            const Vec3f base = base_colour ? *base_colour : renderer::base_colour(scene, m, it);
             float metallic = m.metallic, roughness = m.roughness, transmission = m.transmission;
             if (m.metallic_roughness_texture != scenes::kNoTexture) {
                 const Texel4 mr = texel4(scene, m.metallic_roughness_texture, it);
@@ -61,7 +61,7 @@ Vec3f aov_albedo(const scenes::Scene& scene, const scenes::Material& m, const In
         case BsdfKind::Mirror: return m.reflectance;
         case BsdfKind::Glass: return m.transmittance;
         case BsdfKind::Microfacet: return fresnel_conductor(1.0f, m.eta, m.k);
-        default: return m.albedo * texel(scene, m.albedo_texture, it);
+        default: return base_colour(scene, m, it);
     }
 }
 

@@ -13,16 +13,11 @@ namespace {
 
 /// Diffuse reflectance at a hit; emitters do not reflect (a course trap) unless the
 /// material says it does both.
-/// Base colour: albedo times its texture.
-Vec3f reflectance_of(const scenes::Scene& scene, const scenes::Material& m, const Interaction& it) {
-    return m.albedo * texel(scene, m.albedo_texture, it);
-}
-
 Vec3f reflectance(const scenes::Scene& scene, const Interaction& it) {
     if (it.material >= scene.materials.size()) return Vec3f(0.8f);
     const scenes::Material& m = scene.materials[it.material];
     if (m.is_emissive() && !m.emitter_reflects) return Vec3f(0.0f);
-    return reflectance_of(scene, m, it);
+    return base_colour(scene, m, it);
 }
 
 bool is_unlit(const scenes::Scene& scene, const Interaction& it) {
@@ -135,7 +130,7 @@ Vec3f PathIntegrator::li(const accel::Ray& camera_ray, SampleContext& ctx) const
         // it, from the front face only unless double-sided (glTF's culling).
         const scenes::Material& m = scene_.materials[it.material];
         if (!counts(0) || (!m.double_sided && accel::dot(it.ng, wo) <= 0)) return L;
-        return reflectance_of(scene_, m, it);
+        return base_colour(scene_, m, it);
     }
     if (counts(0)) L += lights_.emitted(it, wo);
     const int split = ctx.split > 0 ? ctx.split : s_.split;

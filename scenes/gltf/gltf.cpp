@@ -46,6 +46,8 @@ const std::set<std::string>& supported_extensions() {
                                             "KHR_draco_mesh_compression",
                                             "KHR_lights_punctual",
                                             "KHR_materials_emissive_strength",
+                                            "KHR_materials_ior",
+                                            "KHR_materials_transmission",
                                             "KHR_materials_unlit",
                                             "KHR_mesh_quantization",
                                             "KHR_texture_transform"};
@@ -308,6 +310,9 @@ constexpr AttributeRule kNormalRule{"NORMAL", TINYGLTF_TYPE_VEC3, kCtFloat | kCt
                                     true};
 constexpr AttributeRule kTexcoordRule{"TEXCOORD", TINYGLTF_TYPE_VEC2,
                                       kCtFloat | kCtByte | kCtUByte | kCtShort | kCtUShort, false};
+/// COLOR_n: VEC3 or VEC4 (the type is the accessor's), float or normalized unsigned.
+constexpr AttributeRule kColorRule3{"COLOR", TINYGLTF_TYPE_VEC3, kCtFloat | kCtUByte | kCtUShort, true};
+constexpr AttributeRule kColorRule4{"COLOR", TINYGLTF_TYPE_VEC4, kCtFloat | kCtUByte | kCtUShort, true};
 
 /// EXT_mesh_gpu_instancing's per-instance attributes: float, or with KHR_mesh_quantization
 /// (which the extension's specification allows) 8- and 16-bit integers; a rotation's
@@ -353,6 +358,8 @@ struct DecodedPrimitive {
     std::vector<Vec3f> positions;
     std::vector<Vec3f> normals;
     std::vector<Vec2f> uvs;
+    std::vector<Vec3f> colors;  // COLOR_0, only when some vertex is not white
+    std::vector<float> alphas;  // its alpha, only for MASK and BLEND, when some is below 1
     std::vector<uint32_t> triangles;
     uint32_t material = 0;
 };
@@ -448,15 +455,24 @@ private:
                          const std::string& user) const;
     std::vector<float> read_attribute(int ai, const AttributeRule& rule, const std::string& user);
     std::vector<uint32_t> read_indices(int ai, const std::string& user);
+    void read_colors(const tinygltf::Primitive& p, const std::string& pdesc, gltf_detail::DracoPrimitive* draco,
+                     size_t nv, DecodedPrimitive& d);
 
     uint32_t material_index(int mi, const std::string& user);
     UvTransform texture_transform(const tinygltf::TextureInfo& ti, const std::string& desc,
                                   int& texcoord) const;
     int texture_image(int ti, const std::string& user) const;
-    void check_sampler(int ti);
-    /// Image `ii` decoded for a slot that reads `channels` (see decode_texture); sRGB
-    /// colour for base colour and emissive, linear data otherwise.
-    uint32_t decoded_texture(int ii, const std::string& user, const char* channels = "RGBA", bool srgb = true);
+    /// How texture `ti`'s sampler wraps and magnifies (scenes::Texture::wrap_s, wrap_t,
+    /// magnify_nearest); glTF's default sampler repeats and filters.
+    struct Sampling {
+        TextureWrap s = TextureWrap::Repeat, t = TextureWrap::Repeat;
+        bool magnify_nearest = false;
+        auto key() const { return std::make_tuple(s, t, magnify_nearest); }
+    };
+    Sampling sampling(int ti, const std::string& user);
+    /// Texture `ti` (its image and sampler) decoded for a slot that reads `channels` (see
+    /// decode_texture); sRGB colour for base colour and emissive, linear data otherwise.
+    uint32_t decoded_texture(int ti, const std::string& user, const char* channels = "RGBA", bool srgb = true);
     void read_pbr(const tinygltf::Material& g, const std::string& mdesc, Material& out, MaterialUv& uv);
 
     std::string name_;
@@ -468,9 +484,9 @@ private:
     std::map<int, uint32_t> materials_;  // glTF material (-1 = default) -> scene material
     std::vector<int> material_uv_set_;   // per scene material, -1 = no texture used
     std::vector<UvTransform> material_uv_xform_;  // per scene material
-    // (glTF image, channels read, sRGB) -> scene texture: an image two slots read the
-    // same way is decoded once.
-    std::map<std::tuple<int, std::string, bool>, uint32_t> textures_;
+    // (glTF image, channels read, sRGB, sampling) -> scene texture: an image two slots
+    // read the same way through the same kind of sampler is decoded once.
+    std::map<std::tuple<int, std::string, bool, std::tuple<TextureWrap, TextureWrap, bool>>, uint32_t> textures_;
     std::set<int> missing_data_images_;  // data maps whose file is missing (noted once)
     std::set<int> used_images_;          // images a modelled slot asked for
     std::set<std::string> ignored_material_features_;
@@ -967,27 +983,38 @@ int Loader::texture_image(int ti, const std::string& user) const {
     return t.source;
 }
 
-/// Sampler settings of texture `ti` that we do not model, for the note of ignored material
-/// features: every texture repeats (wrapS, wrapT) and is filtered by the footprint of its
-/// lookup (magFilter), so a clamped label would blend its opposite edge in at its border
-/// and a NEAREST pixel-art texture would blur.
-void Loader::check_sampler(int ti) {
+/// The sampler's wraps and magnification filter, which the lookups follow
+/// (renderer/texture.h). minFilter is not read: every lookup is filtered by its footprint
+/// on the MIP pyramid, which is what its mipmapped values ask for and better than what
+/// the others (a level-0 read, aliasing when minified) would give.
+Loader::Sampling Loader::sampling(int ti, const std::string& user) {
+    Sampling out;
     const int si = m_.textures[size_t(ti)].sampler;
-    if (si < 0 || size_t(si) >= m_.samplers.size()) return;
+    if (si < 0) return out;
+    if (size_t(si) >= m_.samplers.size())
+        fail(user + ": texture " + std::to_string(ti) + ": sampler " + std::to_string(si) + " does not exist");
     const tinygltf::Sampler& s = m_.samplers[size_t(si)];
-    for (int w : {s.wrapS, s.wrapT}) {
-        if (w == TINYGLTF_TEXTURE_WRAP_CLAMP_TO_EDGE)
-            ignored_material_features_.insert("sampler wrap CLAMP_TO_EDGE (textures repeat)");
-        else if (w == TINYGLTF_TEXTURE_WRAP_MIRRORED_REPEAT)
-            ignored_material_features_.insert("sampler wrap MIRRORED_REPEAT (textures repeat)");
-    }
-    if (s.magFilter == TINYGLTF_TEXTURE_FILTER_NEAREST)
-        ignored_material_features_.insert("sampler magFilter NEAREST (textures are filtered)");
+    const auto wrap = [&](int w, const char* axis) {
+        switch (w) {
+            case TINYGLTF_TEXTURE_WRAP_REPEAT: return TextureWrap::Repeat;
+            case TINYGLTF_TEXTURE_WRAP_CLAMP_TO_EDGE: return TextureWrap::ClampToEdge;
+            case TINYGLTF_TEXTURE_WRAP_MIRRORED_REPEAT: return TextureWrap::MirroredRepeat;
+        }
+        note(user + ": sampler " + std::to_string(si) + ": " + axis + " " + std::to_string(w) +
+             " is not a glTF wrap mode; the texture repeats");
+        return TextureWrap::Repeat;
+    };
+    out.s = wrap(s.wrapS, "wrapS");
+    out.t = wrap(s.wrapT, "wrapT");
+    out.magnify_nearest = s.magFilter == TINYGLTF_TEXTURE_FILTER_NEAREST;
+    return out;
 }
 
-uint32_t Loader::decoded_texture(int ii, const std::string& user, const char* channels, bool srgb) {
+uint32_t Loader::decoded_texture(int ti, const std::string& user, const char* channels, bool srgb) {
+    const int ii = texture_image(ti, user);
+    const Sampling smp = sampling(ti, user);
     used_images_.insert(ii);
-    const auto key = std::make_tuple(ii, std::string(channels), srgb);
+    const auto key = std::make_tuple(ii, std::string(channels), srgb, smp.key());
     auto found = textures_.find(key);
     if (found != textures_.end()) return found->second;
     const tinygltf::Image& im = m_.images[size_t(ii)];
@@ -1014,6 +1041,9 @@ uint32_t Loader::decoded_texture(int ii, const std::string& user, const char* ch
     std::string why;
     if (!decode_texture(bytes, size, channels, srgb, tex, why)) fail(user + ": " + image_desc(ii) + ": " + why);
     tex.name = !im.name.empty() ? im.name : (!im.uri.empty() && !tinygltf::IsDataURI(im.uri) ? im.uri : "image " + std::to_string(ii));
+    tex.wrap_s = smp.s;
+    tex.wrap_t = smp.t;
+    tex.magnify_nearest = smp.magnify_nearest;
     uint32_t idx = uint32_t(scene_.textures.size());
     scene_.textures.push_back(std::move(tex));
     textures_[key] = idx;
@@ -1068,17 +1098,14 @@ uint32_t Loader::material_index(int mi, const std::string& user) {
         const UvTransform base_xf = texture_transform(pbr.baseColorTexture, mdesc + " baseColorTexture", base_uv);
         const UvTransform emissive_xf = texture_transform(g.emissiveTexture, mdesc + " emissiveTexture", emissive_uv);
         if (pbr.baseColorTexture.index >= 0) {
-            int img = texture_image(pbr.baseColorTexture.index, mdesc + " baseColorTexture");
-            check_sampler(pbr.baseColorTexture.index);
-            out.albedo_texture = decoded_texture(img, mdesc + " baseColorTexture");
+            out.albedo_texture = decoded_texture(pbr.baseColorTexture.index, mdesc + " baseColorTexture");
             uv.share(mdesc, "baseColorTexture", base_uv, base_xf, say);
         }
         if (g.emissiveTexture.index >= 0) {
-            int img = texture_image(g.emissiveTexture.index, mdesc + " emissiveTexture");
+            texture_image(g.emissiveTexture.index, mdesc + " emissiveTexture");
             // A texture multiplying zero emission changes nothing: do not decode it.
             if (out.is_emissive()) {
-                check_sampler(g.emissiveTexture.index);
-                out.emission_texture = decoded_texture(img, mdesc + " emissiveTexture");
+                out.emission_texture = decoded_texture(g.emissiveTexture.index, mdesc + " emissiveTexture");
                 uv.share(mdesc, "emissiveTexture", emissive_uv, emissive_xf, say);
             }
         }
@@ -1154,9 +1181,8 @@ void Loader::read_pbr(const tinygltf::Material& g, const std::string& mdesc, Mat
                 note(mdesc + ": " + slot + " " + image_desc(img) + " not found; using the factors alone");
             return kNoTexture;
         }
-        check_sampler(ti.index);
         uv.share(mdesc, slot, tc, xf, [&](const std::string& s) { note(s); });
-        return decoded_texture(img, mdesc + " " + slot, channels, false);
+        return decoded_texture(ti.index, mdesc + " " + slot, channels, false);
     };
     if (pbr.metallicRoughnessTexture.index >= 0)
         out.metallic_roughness_texture = data_texture(pbr.metallicRoughnessTexture, "metallicRoughnessTexture", "GB");
@@ -1233,6 +1259,10 @@ void Loader::decode_draco_primitive(const tinygltf::Primitive& p, const std::str
     want("POSITION", 3);
     want("NORMAL", 3);
     want(uv_semantic, 2);
+    if (p.attributes.count("COLOR_0")) {
+        const int ai = p.attributes.at("COLOR_0");
+        want("COLOR_0", ai >= 0 && size_t(ai) < m_.accessors.size() && m_.accessors[size_t(ai)].type == TINYGLTF_TYPE_VEC4 ? 4 : 3);
+    }
     ViewBytes v = buffer_view(bv.GetNumberAsInt(), edesc);
     const uint64_t budget = limits_.max_elements - std::min(limits_.max_elements, decoded_elements_);
     std::string why = gltf_detail::decode_draco(v.data, v.size, wanted, budget, out);
@@ -1277,6 +1307,36 @@ UvTransform Loader::texture_transform(const tinygltf::TextureInfo& ti, const std
     return t;
 }
 
+/// COLOR_0 (glTF 2.0, 3.7.2.1): linear RGB or RGBA that multiplies the base colour and
+/// its alpha. Kept only where it changes the image: the colours when some vertex is not
+/// white, the alpha when the material is MASK or BLEND and some vertex is below 1, so a
+/// file whose exporter wrote white vertex colours pays nothing for them. Components are
+/// clamped to [0, 1], the range of the normalized integer forms.
+void Loader::read_colors(const tinygltf::Primitive& p, const std::string& pdesc, gltf_detail::DracoPrimitive* draco,
+                         size_t nv, DecodedPrimitive& d) {
+    const int ai = p.attributes.at("COLOR_0");
+    const tinygltf::Accessor& a = accessor(ai, pdesc);
+    const size_t nc = a.type == TINYGLTF_TYPE_VEC4 ? 4 : 3;
+    std::vector<float> c = draco ? std::move(draco->attributes.at("COLOR_0"))
+                                 : read_attribute(ai, nc == 4 ? kColorRule4 : kColorRule3, pdesc);
+    if (c.size() != nv * nc)
+        fail(pdesc + ": COLOR_0 has " + std::to_string(c.size() / nc) + " elements, POSITION " + std::to_string(nv));
+    for (float& x : c) x = std::clamp(x, 0.0f, 1.0f);
+    bool white = true, opaque = true;
+    for (size_t i = 0; i < nv; ++i) {
+        white = white && c[i * nc] == 1.0f && c[i * nc + 1] == 1.0f && c[i * nc + 2] == 1.0f;
+        opaque = opaque && (nc == 3 || c[i * nc + 3] == 1.0f);
+    }
+    if (!white) {
+        d.colors.resize(nv);
+        for (size_t i = 0; i < nv; ++i) d.colors[i] = {c[i * nc], c[i * nc + 1], c[i * nc + 2]};
+    }
+    if (!opaque && scene_.materials[d.material].alpha_mode != AlphaMode::Opaque) {
+        d.alphas.resize(nv);
+        for (size_t i = 0; i < nv; ++i) d.alphas[i] = c[i * nc + 3];
+    }
+}
+
 const DecodedPrimitive& Loader::decode_primitive(int mi, int pi) {
     auto key = std::make_pair(mi, pi);
     auto found = primitives_.find(key);
@@ -1298,9 +1358,6 @@ const DecodedPrimitive& Loader::decode_primitive(int mi, int pi) {
     if (d.skip) return primitives_.emplace(key, std::move(d)).first->second;
 
     d.material = material_index(p.material, pdesc);
-    // glTF multiplies the base colour (and its alpha) by COLOR_0; we do not read it, so a
-    // vertex-coloured model would render in its material's colour without a word.
-    if (p.attributes.count("COLOR_0")) ignored_material_features_.insert("vertex colours (COLOR_0)");
     if (!p.targets.empty()) morphed_meshes_.insert(mi);
     const int uv_set = material_uv_set_[d.material];
     const std::string uv_sem = uv_set >= 0 ? "TEXCOORD_" + std::to_string(uv_set) : "";
@@ -1353,6 +1410,7 @@ const DecodedPrimitive& Loader::decode_primitive(int mi, int pi) {
             }
         }
     }
+    if (p.attributes.count("COLOR_0")) read_colors(p, pdesc, compressed ? &draco : nullptr, nv, d);
 
     std::vector<uint32_t> idx;
     if (compressed) {
@@ -1471,7 +1529,8 @@ uint32_t Loader::prototype(int mi, int ni) {
     for (size_t pi = 0; pi < gm.primitives.size(); ++pi) {
         const DecodedPrimitive& d = decode_primitive(mi, int(pi));
         if (d.skip || d.triangles.empty()) continue;
-        elements_ += d.positions.size() + d.triangles.size() + d.normals.size() + d.uvs.size();
+        elements_ += d.positions.size() + d.triangles.size() + d.normals.size() + d.uvs.size() + d.colors.size() +
+                     d.alphas.size();
         if (elements_ > limits_.max_elements)
             fail(node_desc(ni) + ": " + mesh_desc(mi) + ": scene too large (more than " +
                  std::to_string(limits_.max_elements) + " unique vertex/index elements)");
@@ -1497,6 +1556,8 @@ uint32_t Loader::prototype(int mi, int ni) {
             out.normals.push_back(nn / len);
         }
         out.uvs = d.uvs;
+        out.colors = d.colors;
+        out.alphas = d.alphas;
         for (const Vec3f& p : d.positions) box.extend(p);
         scene_.meshes.push_back(std::move(out));
     }
@@ -1563,7 +1624,8 @@ void Loader::add_mesh_instance(int ni, const Mat4f& world) {
     for (size_t pi = 0; pi < gm.primitives.size(); ++pi) {
         const DecodedPrimitive& d = decode_primitive(n.mesh, int(pi));
         if (d.skip) continue;
-        elements_ += d.positions.size() + d.triangles.size() + d.normals.size() + d.uvs.size();
+        elements_ += d.positions.size() + d.triangles.size() + d.normals.size() + d.uvs.size() + d.colors.size() +
+                     d.alphas.size();
         if (elements_ > limits_.max_elements)
             fail(node_desc(ni) + ": scene too large (more than " + std::to_string(limits_.max_elements) +
                  " unique vertex/index elements)");
@@ -1609,6 +1671,8 @@ void Loader::add_mesh_instance(int ni, const Mat4f& world) {
             }
         }
         out.uvs = d.uvs;
+        out.colors = d.colors;
+        out.alphas = d.alphas;
         if (out.indices.empty()) continue;
         scene_.meshes.push_back(std::move(out));
     }

@@ -165,27 +165,58 @@ TEST(GltfTextureTransform, DataMapsTakeTheirTransform) {
     EXPECT_NEAR(same.meshes[0].uvs[1].x, 0.5f, 1e-6f);
 }
 
-// Sampler settings we do not model (textures repeat and are filtered) are named in the
-// note of ignored material features; glTF's default sampler is not.
-TEST(GltfTextureTransform, UnmodelledSamplersAreNamed) {
-    const auto with_sampler = [](const std::string& sampler) {
-        std::string j = textured_triangle("");
-        const std::string textures = R"("textures":[{"source":0}])";
-        j.replace(j.find(textures), textures.size(), R"("textures":[{"source":0,"sampler":0}],"samplers":[)" + sampler + "]");
+// A texture's sampler reaches its lookups (renderer/texture.h): the wrap of each axis and
+// a NEAREST magnification filter. glTF's default sampler, or none, repeats and filters.
+// Samplers are no longer among the features a note says are ignored.
+TEST(GltfSamplers, WrapsAndMagnificationReachTheTexture) {
+    using scenes::TextureWrap;
+    const auto with_samplers = [](const std::string& textures, const std::string& samplers,
+                                  const std::string& material = "") {
+        std::string j = textured_triangle("", material);
+        const std::string plain = R"("textures":[{"source":0}])";
+        j.replace(j.find(plain), plain.size(), R"("textures":)" + textures + R"(,"samplers":[)" + samplers + "]");
         return load(j, "tt.gltf");
     };
     const auto noted = [](const scenes::Scene& s, const std::string& what) {
         for (const std::string& n : s.notes)
-            if (n.find("material features ignored") != std::string::npos && n.find(what) != std::string::npos) return true;
+            if (n.find(what) != std::string::npos) return true;
         return false;
     };
-    const scenes::Scene clamp = with_sampler(R"({"wrapS":33071,"wrapT":33648,"magFilter":9728})");
-    EXPECT_TRUE(noted(clamp, "sampler wrap CLAMP_TO_EDGE"));
-    EXPECT_TRUE(noted(clamp, "sampler wrap MIRRORED_REPEAT"));
-    EXPECT_TRUE(noted(clamp, "sampler magFilter NEAREST"));
-    const scenes::Scene plain = with_sampler(R"({"wrapS":10497,"magFilter":9729})");
-    EXPECT_FALSE(noted(plain, "sampler"));
-    EXPECT_FALSE(noted(with_sampler("{}"), "sampler"));
+    const std::string one = R"([{"source":0,"sampler":0}])";
+    const scenes::Scene clamp = with_samplers(one, R"({"wrapS":33071,"wrapT":33648,"magFilter":9728})");
+    ASSERT_EQ(clamp.textures.size(), 1u);
+    EXPECT_EQ(clamp.textures[0].wrap_s, TextureWrap::ClampToEdge);
+    EXPECT_EQ(clamp.textures[0].wrap_t, TextureWrap::MirroredRepeat);
+    EXPECT_TRUE(clamp.textures[0].magnify_nearest);
+    EXPECT_FALSE(noted(clamp, "sampler"));
+    for (const std::string& sampler : {std::string(R"({"wrapS":10497,"magFilter":9729})"), std::string("{}")}) {
+        const scenes::Scene plain = with_samplers(one, sampler);
+        ASSERT_EQ(plain.textures.size(), 1u);
+        EXPECT_EQ(plain.textures[0].wrap_s, TextureWrap::Repeat) << sampler;
+        EXPECT_EQ(plain.textures[0].wrap_t, TextureWrap::Repeat) << sampler;
+        EXPECT_FALSE(plain.textures[0].magnify_nearest) << sampler;
+        EXPECT_FALSE(noted(plain, "sampler")) << sampler;
+    }
+    // A wrap glTF does not define repeats, with a note naming it.
+    const scenes::Scene odd = with_samplers(one, R"({"wrapT":1234})");
+    EXPECT_EQ(odd.textures[0].wrap_t, TextureWrap::Repeat);
+    EXPECT_TRUE(noted(odd, "sampler 0: wrapT 1234 is not a glTF wrap mode")) << testing::PrintToString(odd.notes);
+    // A sampler that does not exist is an error naming the texture and the sampler.
+    try {
+        with_samplers(R"([{"source":0,"sampler":5}])", "{}");
+        ADD_FAILURE() << "a missing sampler was accepted";
+    } catch (const scenes::SceneError& e) {
+        EXPECT_NE(std::string(e.what()).find("texture 0: sampler 5 does not exist"), std::string::npos) << e.what();
+    }
+    // One image through two samplers, as base colour and emission: decoded once per way
+    // of sampling it, once when both sample it alike.
+    const std::string glow = R"("pbrMetallicRoughness":{"baseColorTexture":{"index":0}},"emissiveTexture":{"index":1},"emissiveFactor":[1,1,1])";
+    const std::string two = R"([{"source":0,"sampler":0},{"source":0,"sampler":1}])";
+    const scenes::Scene apart = with_samplers(two, R"({"wrapS":33071},{"wrapS":33648})", glow);
+    ASSERT_EQ(apart.textures.size(), 2u);
+    EXPECT_EQ(apart.textures[apart.materials[0].albedo_texture].wrap_s, TextureWrap::ClampToEdge);
+    EXPECT_EQ(apart.textures[apart.materials[0].emission_texture].wrap_s, TextureWrap::MirroredRepeat);
+    EXPECT_EQ(with_samplers(two, R"({"wrapS":33071},{"wrapS":33071})", glow).textures.size(), 1u);
 }
 
 TEST(GltfTextureTransform, TexCoordOverrideAndBadValues) {

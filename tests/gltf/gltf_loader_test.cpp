@@ -6,6 +6,7 @@
 #include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <functional>
 #include <string>
 #include <vector>
 
@@ -384,18 +385,51 @@ TEST(GltfMaterials, EmissiveStrengthAndDefaults) {
     EXPECT_LE(ignored_lines, 1) << "ignored features are listed on one line";
 }
 
-// Vertex colours multiply the base colour in glTF; we do not read them, and say so.
-TEST(GltfMaterials, VertexColoursAreNamedAsIgnored) {
-    Doc d = triangle_doc();
-    const std::string mesh = "\"meshes\":[{\"primitives\":[{\"attributes\":{\"POSITION\":0%s},\"indices\":1}]}],"
-                             "\"scenes\":[{\"nodes\":[0]}],\"nodes\":[{\"mesh\":0}]";
-    const auto doc = [&](const std::string& extra) {
-        std::string m = mesh;
-        m.replace(m.find("%s"), 2, extra);
-        return d.json(m);
+// COLOR_0 multiplies the base colour (and its alpha): read as float or normalized
+// unsigned integers, VEC3 or VEC4, and kept only where it changes the image (a colour not
+// white; an alpha below 1 on a MASK or BLEND material). It is no longer an ignored feature.
+TEST(GltfMaterials, VertexColoursAreReadWhereTheyMatter) {
+    const auto doc = [](const std::function<int(Doc&)>& colors, const std::string& material) {
+        Doc d = triangle_doc();
+        const int ci = colors(d);
+        return d.json("\"meshes\":[{\"primitives\":[{\"attributes\":{\"POSITION\":0,\"COLOR_0\":" + std::to_string(ci) +
+                      "},\"indices\":1,\"material\":0}]}],\"materials\":[" + material +
+                      "],\"scenes\":[{\"nodes\":[0]}],\"nodes\":[{\"mesh\":0}]");
     };
-    EXPECT_TRUE(has_note(load(doc(",\"COLOR_0\":0")), "vertex colours (COLOR_0)"));
-    EXPECT_FALSE(has_note(load(doc("")), "COLOR_0"));
+    const std::string opaque = "{}", mask = "{\"alphaMode\":\"MASK\"}";
+    // Float RGB, one component out of range (clamped).
+    const Scene rgb = load(doc([](Doc& d) { return d.vec3({0.5f, 0.25f, 1.0f, 1, 1, 1, 0, 2.0f, 0}); }, opaque));
+    ASSERT_EQ(rgb.meshes[0].colors.size(), 3u);
+    expect_vec(rgb.meshes[0].colors[0], {0.5f, 0.25f, 1.0f});
+    expect_vec(rgb.meshes[0].colors[2], {0.0f, 1.0f, 0.0f});
+    EXPECT_TRUE(rgb.meshes[0].alphas.empty());
+    EXPECT_FALSE(has_note(rgb, "COLOR_0"));
+    // Normalized bytes, RGBA: the alpha is kept for MASK only.
+    const auto rgba8 = [](Doc& d) {
+        return d.data(std::vector<uint8_t>{255, 0, 51, 128, 255, 255, 255, 255, 0, 0, 0, 0}, 5121, 4, "VEC4",
+                      ",\"normalized\":true");
+    };
+    const Scene masked = load(doc(rgba8, mask));
+    ASSERT_EQ(masked.meshes[0].colors.size(), 3u);
+    expect_vec(masked.meshes[0].colors[0], {1.0f, 0.0f, 0.2f});
+    ASSERT_EQ(masked.meshes[0].alphas.size(), 3u);
+    EXPECT_NEAR(masked.meshes[0].alphas[0], 128.0f / 255.0f, 1e-6f);
+    EXPECT_EQ(masked.meshes[0].alphas[2], 0.0f);
+    EXPECT_TRUE(load(doc(rgba8, opaque)).meshes[0].alphas.empty()) << "an opaque material ignores alpha";
+    // White and opaque, as exporters often write: nothing stored.
+    const Scene white = load(doc(
+        [](Doc& d) {
+            return d.data(std::vector<uint16_t>(12, 65535), 5123, 4, "VEC4", ",\"normalized\":true");
+        },
+        mask));
+    EXPECT_TRUE(white.meshes[0].colors.empty());
+    EXPECT_TRUE(white.meshes[0].alphas.empty());
+    // Bad input: integers not normalized, a count not the positions', a scalar type.
+    expect_error(doc([](Doc& d) { return d.data(std::vector<uint8_t>(12, 9), 5121, 4, "VEC4"); }, opaque),
+                 {"COLOR of mesh 0 primitive 0", "must be normalized"});
+    expect_error(doc([](Doc& d) { return d.vec3({1, 0, 0, 0, 1, 0}); }, opaque), {"COLOR_0 has 2 elements, POSITION 3"});
+    expect_error(doc([](Doc& d) { return d.data(std::vector<float>{1, 1, 1}, 5126, 1, "SCALAR"); }, opaque),
+                 {"COLOR of mesh 0 primitive 0", "expected VEC3"});
 }
 
 // Morph targets are not applied: the mesh loads in its base shape, and the note says so,
@@ -695,6 +729,15 @@ TEST(GltfErrors, UnsupportedRequiredExtension) {
                  {"EXT_meshopt_compression"});
     Scene sc = load(d.json("\"extensionsUsed\":[\"EXT_unknown_thing\"]," + kTriMesh + kScene0 + ",\"nodes\":[{\"mesh\":0}]"));
     EXPECT_TRUE(has_note(sc, "EXT_unknown_thing"));
+    // Every extension the loader reads may be required, and is not called ignored.
+    for (const char* e : {"EXT_mesh_gpu_instancing", "KHR_draco_mesh_compression", "KHR_lights_punctual",
+                          "KHR_materials_emissive_strength", "KHR_materials_ior", "KHR_materials_transmission",
+                          "KHR_materials_unlit", "KHR_mesh_quantization", "KHR_texture_transform"}) {
+        const std::string list = std::string("[\"") + e + "\"]";
+        const Scene req = load(d.json("\"extensionsUsed\":" + list + ",\"extensionsRequired\":" + list + "," + kTriMesh +
+                                      kScene0 + ",\"nodes\":[{\"mesh\":0}]"));
+        EXPECT_FALSE(has_note(req, "extensions ignored")) << e;
+    }
 }
 
 TEST(GltfErrors, LoadFromMissingFile) {

@@ -211,6 +211,41 @@ TEST(AlphaBlend, HalfAlphaHalvesTheLightInARender) {
     }
 }
 
+// Vertex alpha (glTF COLOR_0's fourth component) multiplies the base alpha: with alpha 0
+// at the quad's x = -1 edge and 1 at x = +1, alpha is (x + 1) / 2 over both triangles, so
+// a MASK cutoff of 0.5 keeps the half x > 0; shadow rays up from the floor are stopped
+// there and pass elsewhere (away from the contour), on every backend. Under BLEND a ray
+// is stopped with probability (x + 1) / 2: a ray under x in [-0.95, 0.95] on average
+// half the time, and near the opaque edge nearly always.
+TEST(AlphaVertex, VertexAlphaCutsAndBlendsTheQuad) {
+    for (scenes::AlphaMode mode : {scenes::AlphaMode::Mask, scenes::AlphaMode::Blend}) {
+        scenes::Scene s = alpha_scene(mode, 1.0f, false);
+        s.meshes[1].alphas = {0.0f, 1.0f, 1.0f, 0.0f};
+        const SceneGeometry g(s);
+        ASSERT_TRUE(g.views()[1].masked()) << "vertex alpha alone makes the quad masked";
+        for (const std::string& backend : backends()) {
+            auto acc = accel::create_accelerator(backend, g.views(), {});
+            accel::TraceStats st;
+            std::mt19937 rng(3);
+            std::uniform_real_distribution<float> pos(-0.95f, 0.95f);
+            int blocked = 0, near_opaque = 0, near_opaque_blocked = 0;
+            constexpr int kRays = 20000;
+            for (int k = 0; k < kRays; ++k) {
+                const float x = pos(rng);
+                const bool hit = acc->occluded(accel::Ray{Vec3f(x, 0.0f, pos(rng)), Vec3f(0, 1, 0), 1e-4f, 10.0f}, st);
+                blocked += hit;
+                if (mode == scenes::AlphaMode::Mask && std::abs(x) > 0.02f)
+                    ASSERT_EQ(hit, x > 0.0f) << backend << " x " << x;
+                if (x > 0.8f) ++near_opaque, near_opaque_blocked += hit;
+            }
+            const double se = std::sqrt(0.25 / kRays);
+            EXPECT_NEAR(double(blocked) / kRays, 0.5, 5 * se) << backend;
+            // Under x > 0.8, alpha > 0.9.
+            EXPECT_GT(double(near_opaque_blocked) / near_opaque, 0.88) << backend;
+        }
+    }
+}
+
 // Stochastic transparency decides by a hash of the ray, not by a stream of its own: a
 // render is bit-identical at 1 and 2 threads and at any tile size.
 TEST(AlphaBlend, RenderIsBitIdenticalForAnyThreadsAndTiles) {

@@ -294,9 +294,163 @@ TEST(TextureFurnace, TexturedEnclosureConvergesToLeOverOneMinusAlbedo) {
     }
 }
 
+TEST(TextureFurnace, VertexColouredEnclosureConvergesToLeOverOneMinusColour) {
+    // glTF's COLOR_0 multiplies the base colour: a white enclosure whose vertices are all
+    // coloured c, emitting 1, has radiance Le / (1 - c) per channel (the furnace above with
+    // the vertex colour for the texture), with a different c in each channel.
+    const Vec3f c{0.3f, 0.6f, 0.8f};
+    World w;
+    scenes::Material m;
+    m.albedo = Vec3f(1.0f);
+    m.emission = Vec3f(1.0f);
+    m.emitter_reflects = true;
+    w.scene.materials.push_back(m);
+    scenes::Mesh box = textured_box(0);
+    box.uvs.clear();
+    box.colors.assign(box.num_vertices(), c);
+    w.scene.meshes.push_back(box);
+    IntegratorSettings is;
+    is.max_depth = 60;
+    is.rr_continue = 0.8f;
+    w.build(is);
+    const accel::Ray r{Vec3f(0.1f, 0.2f, 0.0f), accel::normalize(Vec3f(0.9f, 0.1f, 0.2f)), 0.0f, 1e30f};
+    const int n = 20000;
+    for (int ch = 0; ch < 3; ++ch) {
+        const float a = ch == 0 ? c.x : ch == 1 ? c.y : c.z;
+        const double expected = (1.0 - std::pow(double(a), 61)) / (1.0 - a);
+        const Estimate e = estimate(*w.integrator, *w.accel, r, n, 11, ch);
+        EXPECT_NEAR(e.mean, expected, 3.0 * e.se + 1e-4) << "channel " << ch << " se " << e.se;
+    }
+}
+
 // A glow map is black but for a few spots. Where ZeroTiles says a lookup reads only zero
 // texels, the lookup is exactly zero, under every filter and footprint (its claim is
 // what LightSet::emitted skips the lookup on); and it says so for most of the black.
+namespace {
+
+/// Texel index i of an axis of n texels as the sampler's wrap continues the image past
+/// its edges, for a reference written from the definitions (glTF 2.0, 3.8.4.6): tiled,
+/// edge texel stretched, or every other tile mirrored.
+int wrapped_index(long i, int n, scenes::TextureWrap w) {
+    switch (w) {
+        case scenes::TextureWrap::Repeat: return int(((i % n) + n) % n);
+        case scenes::TextureWrap::ClampToEdge: return int(std::clamp(i, 0L, long(n) - 1));
+        case scenes::TextureWrap::MirroredRepeat: {
+            const long m = ((i % (2L * n)) + 2L * n) % (2L * n);
+            return int(m < n ? m : 2L * n - 1 - m);
+        }
+    }
+    return 0;
+}
+
+/// The bilinear reconstruction of level 0 of a float R texture at an unwrapped uv, over
+/// the infinite image the wraps make: the four texel centres around the point, each read
+/// through wrapped_index.
+float reference_bilinear(const Texture& t, float u, float v) {
+    const double x = double(u) * t.width - 0.5, y = double(v) * t.height - 0.5;
+    const double x0 = std::floor(x), y0 = std::floor(y), fx = x - x0, fy = y - y0;
+    const auto at = [&](long i, long j) {
+        float f;
+        const size_t k = size_t(wrapped_index(j, int(t.height), t.wrap_t)) * t.width +
+                         size_t(wrapped_index(i, int(t.width), t.wrap_s));
+        std::memcpy(&f, &t.data[k * 4], 4);
+        return double(f);
+    };
+    const long i = long(x0), j = long(y0);
+    return float((1 - fx) * (1 - fy) * at(i, j) + fx * (1 - fy) * at(i + 1, j) + (1 - fx) * fy * at(i, j + 1) +
+                 fx * fy * at(i + 1, j + 1));
+}
+
+}  // namespace
+
+TEST(TextureWrapModes, BilinearLookupsFollowTheWrappedImage) {
+    // Every pair of wraps, at points up to three tiles away: the lookup brings uv into the
+    // image and takes its neighbours across an edge by the wrap; the reference reads the
+    // infinite wrapped image directly.
+    using scenes::TextureWrap;
+    Texture t = Texture::make("wrapped", 7, 5, TexelFormat::F32, "R");
+    std::mt19937 rng(11);
+    std::uniform_real_distribution<float> u01(0.0f, 1.0f);
+    for (size_t k = 0; k < size_t(7 * 5); ++k) {
+        const float f = u01(rng);
+        std::memcpy(&t.data[k * 4], &f, 4);
+    }
+    const TextureWrap all[3] = {TextureWrap::Repeat, TextureWrap::ClampToEdge, TextureWrap::MirroredRepeat};
+    for (TextureWrap ws : all)
+        for (TextureWrap wt : all) {
+            t.wrap_s = ws;
+            t.wrap_t = wt;
+            for (int i = 0; i < 4000; ++i) {
+                const Vec2f uv{u01(rng) * 6.0f - 3.0f, u01(rng) * 6.0f - 3.0f};
+                ASSERT_NEAR(lookup(t, uv, kNoFootprint, TextureFilter::Bilinear).r, reference_bilinear(t, uv.x, uv.y),
+                            2e-5f)
+                    << "wraps " << int(ws) << " " << int(wt) << " at uv " << uv.x << " " << uv.y;
+                ASSERT_EQ(lookup_alpha(t, uv), 1.0f);
+            }
+            // On the edges and the tiles' seams themselves.
+            for (float u : {-2.0f, -1.0f, -0.5f, 0.0f, 1.0f, 1.5f, 2.0f, 3.0f})
+                for (float v : {-1.0f, 0.0f, 1.0f, 2.0f})
+                    EXPECT_NEAR(lookup(t, {u, v}, kNoFootprint, TextureFilter::Bilinear).r, reference_bilinear(t, u, v),
+                                2e-5f)
+                        << "wraps " << int(ws) << " " << int(wt) << " at uv " << u << " " << v;
+        }
+    // The clamped edge is the edge texel alone; the repeating one blends the far edge in.
+    t.wrap_s = t.wrap_t = TextureWrap::ClampToEdge;
+    float corner;
+    std::memcpy(&corner, &t.data[0], 4);
+    EXPECT_EQ(lookup(t, {0.0f, 0.0f}, kNoFootprint, TextureFilter::Bilinear).r, corner);
+    EXPECT_EQ(lookup(t, {-5.0f, -0.25f}, kNoFootprint, TextureFilter::Trilinear).r, corner);
+    t.wrap_s = t.wrap_t = TextureWrap::Repeat;
+    EXPECT_NE(lookup(t, {0.0f, 0.0f}, kNoFootprint, TextureFilter::Bilinear).r, corner);
+}
+
+TEST(TextureWrapModes, AlphaTestReadsTheWrappedTexel) {
+    // lookup_alpha is the bilinear lookup's alpha bit for bit under every wrap, and the
+    // nearest texel's under a NEAREST magnification filter.
+    using scenes::TextureWrap;
+    Pair p = random_pair(16, 8, true, 3);
+    std::mt19937 rng(12);
+    std::uniform_real_distribution<float> u01(0.0f, 1.0f);
+    for (TextureWrap w : {TextureWrap::Repeat, TextureWrap::ClampToEdge, TextureWrap::MirroredRepeat})
+        for (bool nearest : {false, true}) {
+            p.u8.wrap_s = p.u8.wrap_t = w;
+            p.u8.magnify_nearest = nearest;
+            for (int i = 0; i < 2000; ++i) {
+                const Vec2f uv{u01(rng) * 4.0f - 2.0f, u01(rng) * 4.0f - 2.0f};
+                ASSERT_EQ(lookup_alpha(p.u8, uv), lookup(p.u8, uv, kNoFootprint, TextureFilter::Bilinear).a);
+            }
+        }
+}
+
+TEST(TextureWrapModes, NearestMagnificationReadsOneTexelUnderATexel) {
+    // magFilter NEAREST: a footprint smaller than a texel reads the texel uv falls in,
+    // with every filter; a footprint of many texels filters as before.
+    Pair p = random_pair(32, 16, false, 4);
+    Texture& t = p.f32;
+    Texture plain = t;
+    t.magnify_nearest = true;
+    std::mt19937 rng(13);
+    std::uniform_real_distribution<float> u01(0.0f, 1.0f);
+    const float under = uv_lod(UvFootprint{0.5f / 32.0f, 0, 0, 0.5f / 32.0f});  // half a texel
+    const float wide = uv_lod(UvFootprint{8.0f / 32.0f, 0, 0, 8.0f / 32.0f});   // 8 texels
+    for (int i = 0; i < 2000; ++i) {
+        const Vec2f uv{u01(rng), u01(rng)};
+        const Texel4 texel = fetch(t, 0, std::min(31u, uint32_t(uv.x * 32.0f)), std::min(15u, uint32_t(uv.y * 16.0f)));
+        for (TextureFilter f : {TextureFilter::Bilinear, TextureFilter::Trilinear, TextureFilter::Stochastic}) {
+            ASSERT_EQ(lookup(t, uv, under, f).r, texel.r);
+            ASSERT_EQ(lookup(t, uv, wide, f).g, lookup(plain, uv, wide, f).g);
+        }
+    }
+    // And the plain texture blends neighbours under a texel.
+    int blended = 0;
+    for (int i = 0; i < 200; ++i) {
+        const Vec2f uv{u01(rng), u01(rng)};
+        const Texel4 texel = fetch(t, 0, std::min(31u, uint32_t(uv.x * 32.0f)), std::min(15u, uint32_t(uv.y * 16.0f)));
+        blended += lookup(plain, uv, under, TextureFilter::Trilinear).r != texel.r;
+    }
+    EXPECT_GT(blended, 150);
+}
+
 TEST(TextureZeroTiles, ZeroOnlyWhereTheLookupIsZero) {
     // Not a multiple of the 16-texel tile, and not square.
     const uint32_t w = 250, h = 190;
@@ -314,20 +468,27 @@ TEST(TextureZeroTiles, ZeroOnlyWhereTheLookupIsZero) {
     std::mt19937 rng(5);
     std::uniform_real_distribution<float> u01(0.0f, 1.0f);
     int zero = 0, total = 0;
+    const scenes::TextureWrap wraps[3] = {scenes::TextureWrap::Repeat, scenes::TextureWrap::ClampToEdge,
+                                          scenes::TextureWrap::MirroredRepeat};
     for (int i = 0; i < 20000; ++i) {
+        t.wrap_s = wraps[i % 3];
+        t.wrap_t = wraps[(i / 3) % 3];
         const Vec2f uv{u01(rng) * 3.0f - 1.0f, u01(rng) * 3.0f - 1.0f};
         const float width = std::exp2(u01(rng) * 10.0f - 2.0f) / float(w);  // 1/4 to 256 texels
         const float lod = uv_lod(UvFootprint{width, 0.0f, 0.0f, width * u01(rng)});
         for (TextureFilter f : {TextureFilter::Nearest, TextureFilter::Bilinear, TextureFilter::Stochastic,
                                 TextureFilter::Trilinear}) {
-            ++total;
+            const bool repeats = t.wrap_s == scenes::TextureWrap::Repeat && t.wrap_t == scenes::TextureWrap::Repeat;
+            total += repeats;
             if (!zt.zero(t, uv, lod, f)) continue;
-            ++zero;
+            zero += repeats;
             const Texel4 v = lookup(t, uv, lod, f);
             ASSERT_EQ(v.r + v.g + v.b, 0.0f) << "uv " << uv.x << " " << uv.y << " lod " << lod;
         }
     }
-    EXPECT_GT(zero, total / 2) << "zero tiles should answer for most of a black texture";
+    // (Clamped uvs outside [0, 1] read the edges, where a support always meets one.)
+    EXPECT_GT(zero, total / 2) << "zero tiles should answer for most of a black repeating texture";
+    t.wrap_s = t.wrap_t = scenes::TextureWrap::Repeat;
     // On a spot, never.
     EXPECT_FALSE(zt.zero(t, {41.5f / float(w), 101.5f / float(h)}, kNoFootprint, TextureFilter::Nearest));
     EXPECT_FALSE(zt.zero(t, {200.5f / float(w), 20.5f / float(h)}, kNoFootprint, TextureFilter::Trilinear));
