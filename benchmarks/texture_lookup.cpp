@@ -30,7 +30,7 @@
 #include <vector>
 
 #include "renderer/texture.h"
-#include "scenes/gltf/gltf_image.h"
+#include "scenes/image/image.h"
 #include "tools/cli.h"
 
 namespace {
@@ -139,7 +139,7 @@ void bench_ours(const std::vector<uint8_t>& px, int n, size_t count, int reps, c
     scenes::Texture tex = scenes::Texture::make("image", uint32_t(n), uint32_t(n), scenes::TexelFormat::U8, "RGB");
     tex.srgb = true;
     std::copy(px.begin(), px.end(), tex.data.begin());
-    scenes::gltf_detail::build_mip_pyramid(tex);
+    scenes::image::build_mip_pyramid(tex);
     const double ours_mib = double(tex.data.size()) / (1024.0 * 1024.0);
     for (const bool coherent : {false, true}) {
         const std::vector<Query> qs = make_queries(n, count, coherent);

@@ -358,7 +358,7 @@ bool ZeroTiles::zero(const Texture& t, const Vec2f& uv, float lod, TextureFilter
     const Texture::Level& l = t.levels[0];
     if ((l.width + kTile - 1) / kTile != tiles_x_ || (l.height + kTile - 1) / kTile != tiles_y_) return false;
     // The coarsest level the filter reads. A texel of level k averages the 2^k x 2^k
-    // texels of level 0 under it (gltf_image.cpp), and the texels around uv at level k
+    // texels of level 0 under it (scenes/image/image.cpp), and the texels around uv at level k
     // lie within 2.5 of its texels of uv: so within 2.5 * 2^k + 1 texels of level 0
     // (the rounding of a level's size down only moves them toward uv).
     const float level = is_mip_filter(f) ? mip_level(t, lod) : 0.0f;

@@ -2,7 +2,7 @@
 // that footprint.
 //
 // Filtering follows Williams, "Pyramidal parametrics" (SIGGRAPH 1983): a MIP pyramid built
-// at load time (scenes/gltf/gltf_image.h) and a trilinear lookup whose level follows the
+// at load time (scenes/image/image.h) and a trilinear lookup whose level follows the
 // log2 of the footprint's longer side in texels (the length rule of the OpenGL
 // specification, 3.9.11 in 3.0, rather than pbrt-v4's max-component width), lowered by
 // 0.79 so that the trilinear kernel's variance is the pixel box filter's (texture.cpp

@@ -1,10 +1,13 @@
 // CS184 COLLADA loader. Reads the subset of COLLADA 1.4.1 that the course's Blender
-// exports use (see ../shared/scenes/README.md) into scenes::Scene, in world space.
+// exports use (see ../shared/scenes/README.md) into scenes::Scene, in world space, and
+// the profile_COMMON diffuse textures other exporters write (scenes/README.md).
 //
 // Robustness contract: every problem in the input becomes a SceneError naming the file
 // and the element (tag, id, line); nothing is allocated from a count the file claims
 // before checking it against the data that is actually present.
 #include "scenes/collada/collada.h"
+
+#include "scenes/image/image.h"
 
 #include <fmt/format.h>
 
@@ -17,6 +20,7 @@
 #include <filesystem>
 #include <fstream>
 #include <limits>
+#include <map>
 #include <numbers>
 #include <string_view>
 #include <unordered_map>
@@ -90,6 +94,37 @@ bool parse_u32(std::string_view t, uint32_t& out) {
     return r.ec == std::errc() && r.ptr == e && b != e;
 }
 
+std::string_view trimmed(std::string_view v) {
+    while (!v.empty() && is_space(v.front())) v.remove_prefix(1);
+    while (!v.empty() && is_space(v.back())) v.remove_suffix(1);
+    return v;
+}
+
+/// An <image>'s file reference as a path: a file: URI's scheme dropped, %XX escapes
+/// decoded, backslashes (Windows exporters) read as separators.
+std::string uri_path(std::string_view uri) {
+    if (uri.substr(0, 7) == "file://") {
+        uri.remove_prefix(7);
+        // file:///C:/x.png names a drive; file:///x.png keeps its root.
+        if (uri.size() > 3 && uri[0] == '/' && uri[2] == ':') uri.remove_prefix(1);
+    } else if (uri.substr(0, 5) == "file:") {
+        uri.remove_prefix(5);
+    }
+    std::string out;
+    for (size_t i = 0; i < uri.size(); ++i) {
+        const auto hex = [](char c) {
+            return c >= '0' && c <= '9' ? c - '0' : c >= 'a' && c <= 'f' ? c - 'a' + 10 : c >= 'A' && c <= 'F' ? c - 'A' + 10 : -1;
+        };
+        if (uri[i] == '%' && i + 2 < uri.size() && hex(uri[i + 1]) >= 0 && hex(uri[i + 2]) >= 0) {
+            out += char(hex(uri[i + 1]) * 16 + hex(uri[i + 2]));
+            i += 2;
+        } else {
+            out += uri[i] == '\\' ? '/' : uri[i];
+        }
+    }
+    return out;
+}
+
 std::string clip(std::string_view s, size_t n = 64) {
     if (s.size() <= n) return std::string(s);
     return std::string(s.substr(0, n)) + "...";
@@ -110,14 +145,32 @@ bool matrix_finite(const Mat4f& m) {
     return true;
 }
 
+/// A corner's position, normal and texture coordinate, each an index into its
+/// geometry's sources numbered one after another (source_base); kNone where absent.
+struct WeldKey {
+    uint32_t p, n, t;
+    bool operator==(const WeldKey&) const = default;
+};
+struct WeldHash {
+    size_t operator()(const WeldKey& k) const {
+        uint64_t h = (uint64_t(k.p) << 32 | k.n) * 0x9E3779B97F4A7C15ull;
+        return size_t((h ^ (h >> 29)) + k.t * 0xBF58476D1CE4E5B9ull);
+    }
+};
+
 /// Mesh data of one <geometry> in its own space, split by material symbol and welded.
 struct LocalGroup {
     std::string symbol;
     std::vector<Vec3f> positions;
     std::vector<Vec3f> normals;
+    /// Texture coordinates, flipped to the scene's convention (v = 0 at the image's top;
+    /// COLLADA's, as OpenGL's, is at its bottom), read only when some effect of the
+    /// document has a diffuse texture.
+    std::vector<Vec2f> uvs;
     std::vector<uint32_t> indices;
     bool normals_seen = false, missing_normals = false;
-    std::unordered_map<uint64_t, uint32_t> weld;
+    bool uvs_seen = false, missing_uvs = false;
+    std::unordered_map<WeldKey, uint32_t, WeldHash> weld;
 };
 
 struct LocalGeometry {
@@ -134,6 +187,10 @@ struct Accessor {
     Vec3f get(uint32_t i) const {
         const float* p = data + size_t(i) * stride;
         return {p[0], p[1], p[2]};
+    }
+    Vec2f get2(uint32_t i) const {
+        const float* p = data + size_t(i) * stride;
+        return {p[0], p[1]};
     }
 };
 
@@ -349,6 +406,26 @@ private:
 
     // ---- materials --------------------------------------------------------------
     uint32_t material_index(pugi::xml_node mat);
+    uint32_t diffuse_texture(pugi::xml_node effect, pugi::xml_node tex, const std::string& material);
+    /// Does some effect's diffuse colour come from a texture? Only then are texture
+    /// coordinates read, so a file without textures loads exactly as before.
+    bool any_diffuse_texture() const {
+        for (pugi::xml_node effect : doc_.document_element().child("library_effects").children("effect"))
+            if (first_of(effect.child("profile_COMMON").child("technique"), {"phong", "lambert", "blinn", "constant"})
+                    .child("diffuse")
+                    .child("texture"))
+                return true;
+        return false;
+    }
+    pugi::xml_node element_by_id(std::string_view id) const {
+        auto it = ids_.find(id);
+        return it == ids_.end() ? pugi::xml_node() : it->second;
+    }
+    /// The material's uvs for a mesh of group `grp`: kept only where its material reads a
+    /// texture.
+    std::vector<Vec2f> uvs_for(const LocalGroup& grp, uint32_t material) const {
+        return scene_.materials[material].albedo_texture != kNoTexture ? grp.uvs : std::vector<Vec2f>{};
+    }
     bool read_cgl_bsdf(pugi::xml_node bsdf, Material& m) const;
     uint32_t default_material() {
         if (default_material_ == kNone) {
@@ -413,6 +490,11 @@ private:
     std::unordered_map<const void*, std::vector<float>> arrays_;
     std::unordered_map<const void*, LocalGeometry> geometries_;
     std::unordered_map<const void*, uint32_t> materials_;
+    std::string dir_;                // the document's folder: images are found from it
+    bool textured_effects_ = false;  // any_diffuse_texture()
+    // (image, wrap s, wrap t, NEAREST magnification) -> scene texture
+    std::map<std::tuple<const void*, TextureWrap, TextureWrap, bool>, uint32_t> textures_;
+    std::unordered_set<const void*> missing_images_;  // warned about once each
     std::unordered_map<const void*, uint32_t> source_bases_;  // per geometry, for welding keys
     uint64_t next_base_ = 0;
     uint32_t default_material_ = kNone;
@@ -458,6 +540,11 @@ const LocalGeometry& Loader::geometry(pugi::xml_node geom) {
                                  g.name, grp.symbol));
             }
             if (grp.missing_normals) grp.normals = {};
+            if (grp.missing_uvs && grp.uvs_seen)
+                note(fmt::format("geometry '{}': only some primitives of material '{}' have texture "
+                                 "coordinates; the others read the texture at uv (0, 0)",
+                                 g.name, grp.symbol));
+            if (!grp.uvs_seen) grp.uvs = {};
         }
     } else if (pugi::xml_node sphere = cgl_technique(geom).child("sphere")) {
         pugi::xml_node r = sphere.child("radius");
@@ -474,8 +561,9 @@ const LocalGeometry& Loader::geometry(pugi::xml_node geom) {
 void Loader::parse_primitive(pugi::xml_node prim, LocalGeometry& g) {
     const std::string_view tag = prim.name();
     uint32_t stride = 0;
-    int64_t vertex_off = -1, normal_off = -1;
-    pugi::xml_node vertices, normal_src;
+    int64_t vertex_off = -1, normal_off = -1, uv_off = -1;
+    uint32_t uv_set = kNone;
+    pugi::xml_node vertices, normal_src, uv_src;
     for (pugi::xml_node in : prim.children("input")) {
         const uint32_t off = uint_attr(in, "offset", 0, true);
         if (off > 1024) fail(in, fmt::format("offset {} is absurd", off));
@@ -491,6 +579,11 @@ void Loader::parse_primitive(pugi::xml_node prim, LocalGeometry& g) {
                 normal_src = resolve(in, "source", "source");
                 normal_off = off;
             }
+        } else if (sem == "TEXCOORD" && textured_effects_) {
+            // The lowest set: the one a single diffuse texture is sampled with.
+            pugi::xml_node src = resolve(in, "source", "source");
+            const uint32_t set = uint_attr(in, "set", 0);
+            if (set < uv_set) uv_set = set, uv_src = src, uv_off = off;
         } else {
             resolve(in, "source", nullptr);  // unused, but a dangling link is still an error
         }
@@ -517,6 +610,14 @@ void Loader::parse_primitive(pugi::xml_node prim, LocalGeometry& g) {
         nbase = source_base(ns, nrm.count);
     }
 
+    Accessor uv;
+    uint32_t tbase = 0;
+    const bool has_uvs = uv_off >= 0;
+    if (has_uvs) {
+        uv = accessor_of(uv_src, 2);
+        tbase = source_base(uv_src, uv.count);
+    }
+
     const std::string symbol = prim.attribute("material").value();
     auto git = std::find_if(g.groups.begin(), g.groups.end(),
                             [&](const LocalGroup& x) { return x.symbol == symbol; });
@@ -527,6 +628,7 @@ void Loader::parse_primitive(pugi::xml_node prim, LocalGeometry& g) {
     }
     LocalGroup& grp = *git;
     (has_normals ? grp.normals_seen : grp.missing_normals) = true;
+    (has_uvs ? grp.uvs_seen : grp.missing_uvs) = true;
 
     std::vector<uint32_t> corners;  // welded vertex of each corner of the current polygon
     uint64_t skipped = 0;
@@ -548,12 +650,25 @@ void Loader::parse_primitive(pugi::xml_node prim, LocalGeometry& g) {
                     fail(prim, fmt::format("normal index {} out of range (<source id=\"{}\"> has {})",
                                            ni, clip(nrm.source.attribute("id").value()), nrm.count));
             }
-            const uint64_t key = (uint64_t(pbase + pi) << 32) | (has_normals ? nbase + ni : kNone);
+            uint32_t ti = kNone;
+            if (has_uvs) {
+                ti = c[uv_off];
+                if (ti >= uv.count)
+                    fail(prim, fmt::format("texcoord index {} out of range (<source id=\"{}\"> has {})", ti,
+                                           clip(uv.source.attribute("id").value()), uv.count));
+            }
+            const WeldKey key{pbase + pi, has_normals ? nbase + ni : kNone, has_uvs ? tbase + ti : kNone};
             auto [it, inserted] = grp.weld.try_emplace(key, uint32_t(grp.positions.size()));
             if (inserted) {
                 grp.positions.push_back(pos.get(pi));
                 if (has_normals) grp.normals.push_back(nrm.get(ni));
                 else grp.normals.push_back(Vec3f(0.0f));  // keeps indexing aligned; dropped later
+                if (has_uvs) {
+                    const Vec2f st = uv.get2(ti);
+                    grp.uvs.push_back({st.x, 1.0f - st.y});
+                } else if (textured_effects_) {
+                    grp.uvs.push_back({0.0f, 0.0f});  // aligned with the positions
+                }
             }
             corners.push_back(it->second);
         }
@@ -661,9 +776,14 @@ uint32_t Loader::material_index(pugi::xml_node mat) {
             if (pugi::xml_node c = diffuse.child("color")) {
                 m.albedo = read_color(c);
                 have_diffuse = true;
-            } else if (diffuse.child("texture")) {
-                note(fmt::format("material '{}': diffuse texture ignored (CS184 scenes have none)",
-                                 m.name));
+            } else if (pugi::xml_node tex = diffuse.child("texture")) {
+                // The texture is the diffuse colour (profile_COMMON has no factor beside it).
+                const uint32_t t = diffuse_texture(effect, tex, m.name);
+                if (t != kNoTexture) {
+                    m.albedo = Vec3f(1.0f);
+                    m.albedo_texture = t;
+                    have_diffuse = true;
+                }
             }
         }
         pugi::xml_node tech = cgl_technique(effect);
@@ -694,6 +814,94 @@ uint32_t Loader::material_index(pugi::xml_node mat) {
     scene_.materials.push_back(std::move(m));
     materials_.emplace(mat.internal_object(), idx);
     return idx;
+}
+
+/// The image a diffuse <texture texture="..."> names: through the effect's <newparam>s
+/// (COLLADA 1.4.1, 8-24: a <sampler2D> whose <source> is the sid of a <surface> whose
+/// <init_from> is an <image> id; 1.5: the sampler's <instance_image>), or directly by the
+/// image's id, as some exporters write it. The sampler's wrap_s, wrap_t and a NEAREST
+/// magfilter reach the texture as glTF's do. Decoded once per image and sampler
+/// settings, at its source's precision; a missing file is a warning and the material
+/// keeps its colour (as a missing glTF texture), an undecodable one an error.
+uint32_t Loader::diffuse_texture(pugi::xml_node effect, pugi::xml_node tex, const std::string& material) {
+    const std::string_view ref = tex.attribute("texture").value();
+    const auto newparam = [&](std::string_view sid) -> pugi::xml_node {
+        for (pugi::xml_node scope : {effect, effect.child("profile_COMMON")})
+            for (pugi::xml_node np : scope.children("newparam"))
+                if (sid == np.attribute("sid").value()) return np;
+        return {};
+    };
+    pugi::xml_node sampler = newparam(ref).child("sampler2D"), image;
+    if (sampler) {
+        if (pugi::xml_node ii = sampler.child("instance_image"))
+            image = resolve(ii, "url", "image");
+        else
+            image = element_by_id(trimmed(newparam(trimmed(sampler.child_value("source"))).child("surface").child_value("init_from")));
+    } else {
+        image = element_by_id(ref);
+    }
+    if (!image || std::strcmp(image.name(), "image") != 0) {
+        note(fmt::format("material '{}': diffuse texture '{}' names no <image>; texture ignored", material, clip(ref)));
+        return kNoTexture;
+    }
+    TextureWrap ws = TextureWrap::Repeat, wt = TextureWrap::Repeat;
+    bool nearest = false;
+    if (sampler) {
+        const auto wrap = [&](const char* tag) {
+            const std::string_view v = trimmed(sampler.child_value(tag));
+            if (v.empty() || v == "WRAP") return TextureWrap::Repeat;
+            if (v == "MIRROR" || v == "MIRROR_ONCE") return TextureWrap::MirroredRepeat;
+            if (v == "CLAMP") return TextureWrap::ClampToEdge;
+            note(fmt::format("material '{}': sampler {} {} read as CLAMP", material, tag, clip(v)));
+            return TextureWrap::ClampToEdge;  // BORDER, NONE: no border colour is modelled
+        };
+        ws = wrap("wrap_s");
+        wt = wrap("wrap_t");
+        nearest = trimmed(sampler.child_value("magfilter")) == "NEAREST";
+    }
+    const auto key = std::make_tuple(image.internal_object(), ws, wt, nearest);
+    if (auto it = textures_.find(key); it != textures_.end()) return it->second;
+    pugi::xml_node from = image.child("init_from");
+    std::string_view uri = trimmed(from.child("ref") ? from.child("ref").child_value() : from.child_value());
+    if (uri.empty()) {
+        note(fmt::format("material '{}': {} has no file reference (embedded image data is not read); texture ignored",
+                         material, describe(image)));
+        return textures_[key] = kNoTexture;
+    }
+    std::filesystem::path path(uri_path(uri));
+    if (path.is_relative() && !dir_.empty()) path = std::filesystem::path(dir_) / path;
+    // Only a regular file: a FIFO or device the document names would block or never end.
+    std::error_code ec;
+    std::ifstream in;
+    if (std::filesystem::is_regular_file(path, ec)) in.open(path, std::ios::binary);
+    std::string bytes;
+    if (in.is_open()) {
+        in.seekg(0, std::ios::end);
+        const std::streamoff len = in.tellg();
+        if (len > 0 && uint64_t(len) <= (uint64_t(1) << 30)) {
+            bytes.resize(size_t(len));
+            in.seekg(0, std::ios::beg);
+            if (!in.read(bytes.data(), len)) bytes.clear();
+        }
+    }
+    if (bytes.empty()) {
+        if (missing_images_.insert(image.internal_object()).second)
+            scene_.warnings.push_back(fmt::format("{}: material '{}': image '{}' ({}): file not found or unreadable; "
+                                                  "rendered without it",
+                                                  name_, material, clip(uri), path.string()));
+        return textures_[key] = kNoTexture;
+    }
+    Texture t;
+    std::string why;
+    if (!scenes::image::decode_texture(reinterpret_cast<const unsigned char*>(bytes.data()), bytes.size(), "RGB", true, t, why))
+        fail(image, fmt::format("{}: {}", path.string(), why));
+    t.name = clip(uri);
+    t.wrap_s = ws;
+    t.wrap_t = wt;
+    t.magnify_nearest = nearest;
+    const uint32_t idx = uint32_t(scene_.textures.size());
+    scene_.textures.push_back(std::move(t));
+    return textures_[key] = idx;
 }
 
 /// The CS184 3-2 BSDF elements (CGL collada parser): <mirror><reflectance>,
@@ -963,6 +1171,7 @@ void Loader::instance_geometry(pugi::xml_node inst, pugi::xml_node node, const M
         }
         mesh.pad_positions();
         mesh.indices = grp.indices;
+        mesh.uvs = uvs_for(grp, mat);
         if (!grp.normals.empty()) {
             bool ok = invertible;
             if (ok) {
@@ -1022,6 +1231,7 @@ uint32_t Loader::prototype(const LocalGeometry& g, const std::vector<std::pair<s
         for (const Vec3f& p : grp.positions) box.extend(p);
         mesh.pad_positions();
         mesh.indices = grp.indices;
+        mesh.uvs = uvs_for(grp, mesh.material);
         // Unit normals, as a flattened copy under the identity gets them.
         mesh.normals.reserve(grp.normals.size());
         for (const Vec3f& n : grp.normals) {
@@ -1181,11 +1391,11 @@ Scene Loader::run() {
     if (std::strcmp(root.name(), "COLLADA") != 0)
         fail(root, "not a COLLADA document (root element is not <COLLADA>)");
     index_ids();
+    textured_effects_ = any_diffuse_texture();
+    dir_ = std::filesystem::path(name_).parent_path().string();
 
     if (pugi::xml_node ua = root.child("asset").child("up_axis")) {
-        std::string_view v = ua.child_value();
-        while (!v.empty() && is_space(v.front())) v.remove_prefix(1);
-        while (!v.empty() && is_space(v.back())) v.remove_suffix(1);
+        const std::string_view v = trimmed(ua.child_value());
         if (v == "Z_UP") scene_.up = {0, 0, 1};
         else if (v == "Y_UP") scene_.up = {0, 1, 0};
         else if (v == "X_UP") scene_.up = {1, 0, 0};

@@ -20,12 +20,12 @@
 #include <tiny_gltf.h>
 
 #include "scenes/gltf/gltf_draco.h"
-#include "scenes/gltf/gltf_image.h"
+#include "scenes/image/image.h"
 
 namespace scenes {
 namespace {
 
-using gltf_detail::decode_texture;
+using image::decode_texture;
 
 // The bounds on unique geometry elements and on instances are GltfLimits (gltf.h):
 // instancing lets a small file describe a huge scene, so what it may make us build is

@@ -14,7 +14,7 @@
 #include "renderer/camera.h"
 #include "renderer/interaction.h"
 #include "renderer/texture.h"
-#include "scenes/gltf/gltf_image.h"
+#include "scenes/image/image.h"
 #include "../render/render_world.h"
 
 using namespace renderer;
@@ -47,8 +47,8 @@ Pair random_pair(uint32_t w, uint32_t h, bool srgb, uint32_t seed) {
                                               : float(code) / 255.0f;
                 std::memcpy(&p.f32.data[i * 4], &v, 4);
             }
-    scenes::gltf_detail::build_mip_pyramid(p.u8);
-    scenes::gltf_detail::build_mip_pyramid(p.f32);
+    scenes::image::build_mip_pyramid(p.u8);
+    scenes::image::build_mip_pyramid(p.f32);
     return p;
 }
 
@@ -149,7 +149,7 @@ LevelAt level_on_plane(float size, int width, int spp) {
     const PixelSpread s = cam.pixel_spread(width, width, spp);
     const Texture tex = Texture::make("t", 1024, 1024, TexelFormat::U8, "R");
     Texture pyramid = tex;
-    scenes::gltf_detail::build_mip_pyramid(pyramid);
+    scenes::image::build_mip_pyramid(pyramid);
     const Vec3f p(0.01f, 0.02f, 0.0f), n(0, 0, 1);
     const Vec3f dpdu(size, 0, 0), dpdv(0, size, 0);
     Vec3f dpdx, dpdy;
@@ -190,7 +190,7 @@ TEST(TextureFootprint, LookupAtSixtyFourTexelsPerPixelAveragesTheCheckerboard) {
     for (uint32_t y = 0; y < 256; ++y)
         for (uint32_t x = 0; x < 256; ++x)
             for (int c = 0; c < 3; ++c) t.data[(size_t(y) * 256 + x) * 3 + size_t(c)] = ((x + y) & 1) ? 255 : 0;
-    scenes::gltf_detail::build_mip_pyramid(t);
+    scenes::image::build_mip_pyramid(t);
     const UvFootprint wide{64.0f / 256.0f, 0, 0, 64.0f / 256.0f};
     EXPECT_NEAR(mip_level(t, wide), 6.0f - 0.7924813f, 1e-5f);
     const Vec2f uv{0.3f, 0.7f};
@@ -264,11 +264,11 @@ TEST(TextureFurnace, TexturedEnclosureConvergesToLeOverOneMinusAlbedo) {
         Texture albedo = Texture::make("albedo", 64, 64, TexelFormat::U8, "RGB");
         albedo.srgb = true;
         std::fill(albedo.data.begin(), albedo.data.end(), code);
-        scenes::gltf_detail::build_mip_pyramid(albedo);
+        scenes::image::build_mip_pyramid(albedo);
         Texture white = Texture::make("white", 16, 16, TexelFormat::U8, "RGB");
         white.srgb = true;
         std::fill(white.data.begin(), white.data.end(), uint8_t(255));
-        scenes::gltf_detail::build_mip_pyramid(white);
+        scenes::image::build_mip_pyramid(white);
         w.scene.textures = {albedo, white};
         scenes::Material m;
         m.albedo = Vec3f(1.0f);
@@ -463,7 +463,7 @@ TEST(TextureZeroTiles, ZeroOnlyWhereTheLookupIsZero) {
         for (uint32_t x = 40; x < 43; ++x) light(x, y);
     light(200, 20);
     light(249, 189);  // a corner, so that wrapping supports meet it
-    scenes::gltf_detail::build_mip_pyramid(t);
+    scenes::image::build_mip_pyramid(t);
     const ZeroTiles zt(t);
     std::mt19937 rng(5);
     std::uniform_real_distribution<float> u01(0.0f, 1.0f);

@@ -1,5 +1,5 @@
-// Image decoding for the glTF loader: PNG/JPEG bytes -> a Texture at the image's own
-// precision, with its MIP pyramid.
+// Image decoding for the loaders (glTF's textures, COLLADA's diffuse images): PNG/JPEG
+// bytes -> a Texture at the image's own precision, with its MIP pyramid.
 #pragma once
 
 #include <cstddef>
@@ -8,7 +8,7 @@
 
 #include "scenes/scene.h"
 
-namespace scenes::gltf_detail {
+namespace scenes::image {
 
 /// Largest decoded image we accept (pixels). Decoding goes through an RGBA buffer of up
 /// to 8 bytes per pixel, so this bounds one image at ~512 MB while it decodes; a header
@@ -38,4 +38,4 @@ bool decode_texture(const unsigned char* bytes, size_t size, const char* channel
 /// two first) would double the memory of a large odd-sized image while it is built.
 void build_mip_pyramid(Texture& t);
 
-}  // namespace scenes::gltf_detail
+}  // namespace scenes::image

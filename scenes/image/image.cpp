@@ -1,4 +1,4 @@
-#include "scenes/gltf/gltf_image.h"
+#include "scenes/image/image.h"
 
 #include <algorithm>
 #include <array>
@@ -9,7 +9,7 @@
 
 #include <tiny_gltf.h>
 
-namespace scenes::gltf_detail {
+namespace scenes::image {
 namespace {
 
 uint32_t be32(const unsigned char* p) {
@@ -267,4 +267,4 @@ bool decode_texture(const unsigned char* bytes, size_t size, const char* channel
     return true;
 }
 
-}  // namespace scenes::gltf_detail
+}  // namespace scenes::image
