@@ -471,7 +471,8 @@ private:
                        pugi::xml_node inst, pugi::xml_node node);
     uint32_t bound_material(const LocalGroup& grp, const LocalGeometry& g,
                             const std::vector<std::pair<std::string_view, uint32_t>>& binds, pugi::xml_node node);
-    void instance_geometry(pugi::xml_node inst, pugi::xml_node node, const Mat4f& world);
+    void instance_geometry(pugi::xml_node inst, pugi::xml_node node, const Mat4f& world, pugi::xml_node geom = {});
+    void instance_controller(pugi::xml_node inst, pugi::xml_node node, const Mat4f& world);
     void instance_camera(pugi::xml_node inst, pugi::xml_node node, const Mat4f& world);
     void instance_light(pugi::xml_node inst, pugi::xml_node node, const Mat4f& world);
     void count_triangles(pugi::xml_node where, uint64_t n) {
@@ -1082,12 +1083,56 @@ void Loader::visit(pugi::xml_node node, const Mat4f& parent, uint32_t depth) {
         else if (t == "instance_light")
             instance_light(c, node, world);
         else if (t == "instance_controller")
-            note(fmt::format("node '{}': <instance_controller> (skinning) skipped", label(node)));
+            instance_controller(c, node, world);
     }
 }
 
-void Loader::instance_geometry(pugi::xml_node inst, pugi::xml_node node, const Mat4f& world) {
-    pugi::xml_node geom = resolve(inst, "url", "geometry");
+/// A skinned or morphed mesh (<instance_controller>), placed as its geometry stands
+/// before the controller acts, as the glTF loader places skins and morph targets: a
+/// <skin> in its bind pose, the source geometry times the skin's bind_shape_matrix in
+/// world space (linear blend skinning with every joint at its bind transform, its world
+/// matrix times its inverse bind matrix the identity, leaves the vertices there,
+/// whatever node holds the controller); a <morph> as its base geometry under the node's
+/// transform. A note names each: the skeleton's pose and the morph weights are not applied.
+void Loader::instance_controller(pugi::xml_node inst, pugi::xml_node node, const Mat4f& world) {
+    pugi::xml_node ctrl = resolve(inst, "url", "controller");
+    Mat4f place = world;
+    // A skin's source may be a morph controller; a chain longer than that is refused.
+    for (int depth = 0;; ++depth) {
+        if (depth == 4) fail(ctrl, "controllers nested more than 4 deep");
+        if (pugi::xml_node skin = ctrl.child("skin")) {
+            place = Mat4f{};
+            if (pugi::xml_node bsm = skin.child("bind_shape_matrix")) {
+                float v[16];
+                read_floats(bsm, v, 16);
+                for (int i = 0; i < 16; ++i) place.m[i / 4][i % 4] = v[i];  // row-major in the file
+                if (!matrix_finite(place)) fail(bsm, "is not finite");
+            }
+            pugi::xml_node src = resolve(skin, "source", nullptr);
+            if (std::strcmp(src.name(), "geometry") == 0) {
+                note(fmt::format("node '{}': skinned geometry '{}' placed in its bind pose (the skeleton's pose "
+                                 "is not applied)",
+                                 label(node), label(src)));
+                return instance_geometry(inst, node, place, src);
+            }
+            if (std::strcmp(src.name(), "controller") != 0)
+                fail(skin, fmt::format("source refers to a <{}>, expected a <geometry> or <controller>", clip(src.name())));
+            ctrl = src;
+        } else if (pugi::xml_node morph = ctrl.child("morph")) {
+            pugi::xml_node src = resolve(morph, "source", "geometry");
+            note(fmt::format("node '{}': morphed geometry '{}' placed in its base shape (the morph weights are "
+                             "not applied)",
+                             label(node), label(src)));
+            return instance_geometry(inst, node, place, src);
+        } else {
+            fail(ctrl, "has neither <skin> nor <morph>");
+        }
+    }
+}
+
+/// One placement of a <geometry> (`geom`; by default the one `inst` names) by `world`.
+void Loader::instance_geometry(pugi::xml_node inst, pugi::xml_node node, const Mat4f& world, pugi::xml_node geom) {
+    if (!geom) geom = resolve(inst, "url", "geometry");
     const LocalGeometry& g = geometry(geom);
 
     std::vector<std::pair<std::string_view, uint32_t>> binds;
