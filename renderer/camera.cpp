@@ -31,11 +31,27 @@ Camera::Camera(const Vec3f& position, const Vec3f& target, const Vec3f& up, floa
     tan_v_ = std::tan(0.5f * vfov_deg * kDegToRad);
 }
 
+Camera Camera::orthographic(const Vec3f& position, const Vec3f& target, const Vec3f& up, float half_w,
+                           float half_h) {
+    Camera c(position, target, up, 90.0f, 90.0f);
+    c.ortho_ = true;
+    c.tan_h_ = half_w;
+    c.tan_v_ = half_h;
+    return c;
+}
+
 accel::Ray Camera::generate_ray(float x, float y) const {
     // Camera space: sensor at z = -1; image top (y = 0) maps to +tan_v.
     const float cx = (2.0f * x - 1.0f) * tan_h_;
     const float cy = (1.0f - 2.0f * y) * tan_v_;
     accel::Ray ray;
+    if (ortho_) {
+        ray.org = pos_ + right_ * cx + up_ * cy;
+        ray.dir = fwd_;
+        ray.t_min = 0.0f;
+        ray.t_max = accel::kInfinity;
+        return ray;
+    }
     ray.org = pos_;
     ray.dir = accel::normalize(right_ * cx + up_ * cy + fwd_);
     ray.t_min = 0.0f;
@@ -45,7 +61,7 @@ accel::Ray Camera::generate_ray(float x, float y) const {
 
 accel::Ray Camera::generate_ray(float x, float y, float u1, float u2) const {
     accel::Ray ray = generate_ray(x, y);
-    if (!(lens_radius_ > 0)) return ray;
+    if (!(lens_radius_ > 0) || ortho_) return ray;
     // The in-focus point lies on the plane focal_distance in front of the camera.
     const float t = focal_distance_ / accel::dot(ray.dir, fwd_);
     const Vec3f focus = pos_ + ray.dir * t;
@@ -68,6 +84,7 @@ PixelSpread Camera::pixel_spread(int width, int height, int spp) const {
     s.forward = fwd_;
     s.dx = 2.0f * tan_h_ / float(width) * scale;
     s.dy = 2.0f * tan_v_ / float(height) * scale;
+    s.orthographic = ortho_;
     return s;
 }
 
@@ -125,8 +142,8 @@ CameraSettings read_camera_settings(const std::string& path) {
     return c;
 }
 
-float Camera::hfov_deg() const { return 2.0f * deg(std::atan(tan_h_)); }
-float Camera::vfov_deg() const { return 2.0f * deg(std::atan(tan_v_)); }
+float Camera::hfov_deg() const { return ortho_ ? 0.0f : 2.0f * deg(std::atan(tan_h_)); }
+float Camera::vfov_deg() const { return ortho_ ? 0.0f : 2.0f * deg(std::atan(tan_v_)); }
 
 CameraSetup make_camera(const scenes::Scene& scene, CameraMode mode, int width, int height,
                         const CameraOverrides& ov) {
@@ -141,6 +158,34 @@ CameraSetup make_camera(const scenes::Scene& scene, CameraMode mode, int width, 
     Vec3f pos, target, up = scene.up;
     float hfov, vfov;
     std::string what;
+    // An orthographic file camera is used as written in either mode (the course's
+    // framing is a perspective one's), unless a field of view is asked for.
+    float half_w = 0, half_h = 0;
+    if (scene.camera && scene.camera->orthographic && !ov.hfov_deg) {
+        const scenes::Camera& c = *scene.camera;
+        pos = c.camera_to_world.transform_point(Vec3f(0.0f));
+        target = pos + c.camera_to_world.transform_vector(Vec3f(0.0f, 0.0f, -1.0f));
+        up = c.camera_to_world.transform_vector(Vec3f(0.0f, 1.0f, 0.0f));
+        // Keep the magnification the file fixes (glTF: ymag, as its yfov; COLLADA: xmag,
+        // as its xfov); the other follows from the image's aspect.
+        if (c.ymag > 0 && (c.xmag <= 0 || scene.format == scenes::SceneFormat::Gltf)) {
+            half_h = c.ymag;
+            half_w = half_h * aspect;
+        } else {
+            half_w = c.xmag;
+            half_h = half_w / aspect;
+        }
+        if (ov.position) pos = *ov.position;
+        if (ov.target) target = *ov.target;
+        if (ov.up) up = *ov.up;
+        CameraSetup setup{Camera::orthographic(pos, target, up, half_w, half_h), {}};
+        setup.description = fmt::format(
+            "[PathTracer] Camera: file camera '{}', orthographic{}; at ({:.3g}, {:.3g}, {:.3g}) looking at ({:.3g}, "
+            "{:.3g}, {:.3g}), view {:.3g} x {:.3g}",
+            c.name, ov.position || ov.target || ov.up ? ", with command-line overrides" : "", pos.x, pos.y, pos.z,
+            target.x, target.y, target.z, 2 * half_w, 2 * half_h);
+        return setup;
+    }
     if (scene.camera && mode == CameraMode::Course) {
         const scenes::Camera& c = *scene.camera;
         // The course's Camera::configure sets up an 800x600 window: it takes the file's

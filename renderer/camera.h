@@ -27,13 +27,23 @@ public:
     /// Looks from `position` at `target`; fovs in degrees.
     Camera(const Vec3f& position, const Vec3f& target, const Vec3f& up, float hfov_deg,
            float vfov_deg);
+    /// Orthographic (pbrt-v4 OrthographicCamera, without its lens): rays along the view
+    /// direction from the plane through `position`, over +-half_w along right and +-half_h
+    /// along up.
+    static Camera orthographic(const Vec3f& position, const Vec3f& target, const Vec3f& up, float half_w,
+                               float half_h);
+    bool is_orthographic() const { return ortho_; }
+    /// Half extents of an orthographic view (world units); 0 for a perspective camera.
+    float half_width() const { return ortho_ ? tan_h_ : 0.0f; }
+    float half_height() const { return ortho_ ? tan_v_ : 0.0f; }
 
     /// Ray through image point (x, y) in [0,1]^2, y = 0 at the TOP row. The direction is
     /// normalised so that t is a distance.
     accel::Ray generate_ray(float x, float y) const;
     /// Thin lens (pbrt-v4 PerspectiveCamera; the CS184 3-2 camera): the pinhole ray's
     /// point at `focal_distance` along the view axis stays in focus; the origin moves to
-    /// a point of the lens disc chosen by (u1, u2). A pinhole when the radius is 0.
+    /// a point of the lens disc chosen by (u1, u2). A pinhole when the radius is 0, and for
+    /// an orthographic camera.
     accel::Ray generate_ray(float x, float y, float u1, float u2) const;
     void set_lens(float radius, float focal_distance) {
         lens_radius_ = radius;
@@ -48,12 +58,14 @@ public:
 
     Vec3f position() const { return pos_; }
     Vec3f forward() const { return fwd_; }
+    /// Fields of view (degrees); 0 for an orthographic camera.
     float hfov_deg() const;
     float vfov_deg() const;
 
 private:
     Vec3f pos_, right_, up_, fwd_;
-    float tan_h_ = 1, tan_v_ = 1;
+    float tan_h_ = 1, tan_v_ = 1;  ///< orthographic: the half extents
+    bool ortho_ = false;
     float lens_radius_ = 0, focal_distance_ = 1;
 };
 

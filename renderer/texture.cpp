@@ -390,6 +390,13 @@ Vec3f transfer(const Vec3f& D, float t, const Vec3f& dD, const Vec3f& n) {
 
 void camera_dpdxy(const PixelSpread& s, const Vec3f& dir, const Vec3f& p, const Vec3f& n, Vec3f& dpdx,
                   Vec3f& dpdy) {
+    if (s.orthographic) {
+        // Parallel rays: an offset differential and no direction one (Igehy's eq. 10 with
+        // dD = 0), the origin's step carried along the ray onto the plane.
+        dpdx = transfer(s.forward, 1.0f, s.right * s.dx, n);
+        dpdy = transfer(s.forward, 1.0f, s.up * s.dy, n);
+        return;
+    }
     // The camera's unnormalised direction has unit length along `forward`; t scales it
     // to the hit.
     const float along = accel::dot(dir, s.forward);
@@ -404,6 +411,8 @@ void camera_dpdxy(const PixelSpread& s, const Vec3f& dir, const Vec3f& p, const 
 }
 
 void approximate_dpdxy(const PixelSpread& s, const Vec3f& p, const Vec3f& n, Vec3f& dpdx, Vec3f& dpdy) {
+    // An orthographic camera's pixel has the same footprint everywhere along its ray.
+    if (s.orthographic) return camera_dpdxy(s, s.forward, p, n, dpdx, dpdy);
     const Vec3f to = p - s.position;
     const float dist = accel::length(to);
     if (!(dist > 0.0f) || !std::isfinite(dist)) {

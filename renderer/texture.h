@@ -117,6 +117,9 @@ const float* srgb8_to_linear_table();
 struct PixelSpread {
     Vec3f position, right, up, forward;
     float dx = 0, dy = 0;
+    /// An orthographic camera's: every ray runs along `forward`, and dx, dy are the
+    /// change of its origin along right and up per pixel step, in world units.
+    bool orthographic = false;
     bool valid() const { return dx > 0 && dy > 0; }
 };
 

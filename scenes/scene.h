@@ -276,6 +276,11 @@ struct Camera {
     float yfov_deg = 0.0f;    ///< vertical field of view, degrees (0 = derive from aspect)
     float aspect = 0.0f;      ///< width / height if the file gave it, else 0
     float znear = 0.01f, zfar = 1e30f;
+    /// Orthographic (glTF "orthographic", COLLADA <orthographic>): parallel rays along -Z
+    /// over half-extents xmag by ymag in camera space (0: derived from the other and the
+    /// image's aspect); the fovs are unused.
+    bool orthographic = false;
+    float xmag = 0.0f, ymag = 0.0f;
 };
 
 /// A group of meshes in object space, placed by instances: the meshes

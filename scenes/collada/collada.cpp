@@ -1303,13 +1303,33 @@ void Loader::instance_camera(pugi::xml_node inst, pugi::xml_node node, const Mat
         return;
     }
     pugi::xml_node persp = cam.child("optics").child("technique_common").child("perspective");
-    if (!persp) {
-        note(fmt::format("camera '{}' is not perspective; ignored", label(cam)));
+    pugi::xml_node ortho = cam.child("optics").child("technique_common").child("orthographic");
+    if (!persp && !ortho) {
+        note(fmt::format("camera '{}' is neither perspective nor orthographic; ignored", label(cam)));
         return;
     }
     Camera c;
     c.name = label(node);
     c.camera_to_world = world;
+    if (!persp) {
+        // COLLADA 1.4.1, 5-92: xmag, ymag (half extents) and aspect_ratio, any two of them.
+        c.orthographic = true;
+        const auto mag = [&](const char* tag, float& out) {
+            if (pugi::xml_node e = ortho.child(tag)) {
+                out = std::abs(read_float(e));
+                if (!(out > 0.0f)) fail(e, "must not be zero");
+            }
+        };
+        mag("xmag", c.xmag);
+        mag("ymag", c.ymag);
+        if (pugi::xml_node a = ortho.child("aspect_ratio")) {
+            const float r = read_float(a);
+            if (!(r > 0.0f)) fail(a, "must be positive");
+            if (c.ymag == 0.0f && c.xmag > 0.0f) c.ymag = c.xmag / r;
+            if (c.xmag == 0.0f && c.ymag > 0.0f) c.xmag = c.ymag * r;
+        }
+        if (c.xmag == 0.0f && c.ymag == 0.0f) fail(ortho, "has neither <xmag> nor <ymag>");
+    }
     const bool affine = world.m[3][0] == 0.0f && world.m[3][1] == 0.0f &&
                         world.m[3][2] == 0.0f && world.m[3][3] == 1.0f;
     if (!affine || std::fabs(det3(world)) < 1e-9) {
@@ -1335,6 +1355,10 @@ void Loader::instance_camera(pugi::xml_node inst, pugi::xml_node node, const Mat
         note(fmt::format("camera node '{}': singular or projective transform; rebuilt from its "
                          "view direction and the up axis",
                          c.name));
+    }
+    if (c.orthographic) {
+        scene_.camera = c;
+        return;
     }
     auto fov = [&](const char* tag, float& out) {
         pugi::xml_node e = persp.child(tag);

@@ -715,14 +715,30 @@ void Loader::add_camera(int ni, const Mat4f& world) {
         fail(node_desc(ni) + ": camera " + std::to_string(n.camera) + " does not exist");
     const tinygltf::Camera& c = m_.cameras[size_t(n.camera)];
     std::string cdesc = "camera " + std::to_string(n.camera) + (c.name.empty() ? "" : " (" + squote(c.name) + ")");
-    if (c.type != "perspective") {
+    if (c.type != "perspective" && c.type != "orthographic") {
         note(cdesc + ": " + (c.type.empty() ? std::string("untyped") : c.type) +
-             " camera skipped (only perspective cameras are supported)");
+             " camera skipped (only perspective and orthographic cameras are supported)");
         return;
     }
     ++cameras_seen_;
     if (scene_.camera) {
         if (cameras_seen_ == 2) note("several cameras in the scene: using the first, " + squote(scene_.camera->name));
+        return;
+    }
+    if (c.type == "orthographic") {
+        // xmag and ymag are the view's half extents; the specification asks for them
+        // non-zero (a negative one mirrors nothing we model: its size is what counts).
+        const tinygltf::OrthographicCamera& o = c.orthographic;
+        if (!std::isfinite(o.xmag) || !std::isfinite(o.ymag) || o.xmag == 0.0 || o.ymag == 0.0)
+            fail(cdesc + ": orthographic xmag and ymag must be finite and non-zero");
+        Camera cam;
+        cam.name = !c.name.empty() ? c.name : (!n.name.empty() ? n.name : "camera " + std::to_string(n.camera));
+        cam.camera_to_world = world;
+        cam.orthographic = true;
+        cam.xmag = float(std::abs(o.xmag));
+        cam.ymag = float(std::abs(o.ymag));
+        cam.aspect = cam.xmag / cam.ymag;
+        scene_.camera = cam;
         return;
     }
     const tinygltf::PerspectiveCamera& p = c.perspective;

@@ -677,6 +677,27 @@ std::string error_of(const std::string& doc, const std::string& name = "bad.dae"
             EXPECT_NE(msg_.find(needle_), std::string::npos) << "'" << needle_ << "' not in: " << msg_; \
     } while (0)
 
+// <orthographic>: any two of xmag, ymag (half extents) and aspect_ratio; a zero one, or
+// neither magnification, is refused naming the element.
+TEST(ColladaScene, OrthographicCameraKeepsItsExtents) {
+    const auto with = [](const std::string& optics) {
+        return dae(geometries(tri_geometry()) + "<library_cameras><camera id=\"cam\"><optics><technique_common>"
+                   "<orthographic>" + optics + "</orthographic></technique_common></optics></camera></library_cameras>",
+                   node("n", "", "tri") + "<node id=\"C\"><translate>0 0 9</translate><instance_camera url=\"#cam\"/></node>");
+    };
+    const Scene s = load(with("<xmag>4</xmag><aspect_ratio>2</aspect_ratio><znear>0.1</znear><zfar>100</zfar>"));
+    ASSERT_TRUE(s.camera.has_value());
+    EXPECT_TRUE(s.camera->orthographic);
+    EXPECT_EQ(s.camera->xmag, 4.0f);
+    EXPECT_EQ(s.camera->ymag, 2.0f);
+    expect_near(s.camera->camera_to_world.transform_point({0, 0, 0}), {0, 0, 9});
+    const Scene y = load(with("<ymag>3</ymag>"));
+    EXPECT_EQ(y.camera->ymag, 3.0f);
+    EXPECT_EQ(y.camera->xmag, 0.0f) << "the renderer derives it from the image";
+    EXPECT_ERROR(with("<xmag>0</xmag>"), "<xmag>", "must not be zero");
+    EXPECT_ERROR(with("<aspect_ratio>2</aspect_ratio>"), "<orthographic>", "neither <xmag> nor <ymag>");
+}
+
 TEST(ColladaErrors, MalformedXmlNamesTheLine) {
     EXPECT_ERROR("<?xml version=\"1.0\"?>\n<COLLADA>\n<asset>\n</COLLADA>\n", "bad.dae:4:", "malformed XML");
     EXPECT_ERROR(std::string(), "malformed XML");

@@ -511,8 +511,8 @@ TEST(GltfCameras, FovConversionAndFirstCamera) {
         kTriMesh + ",\"cameras\":[{\"type\":\"orthographic\",\"orthographic\":{\"xmag\":1,\"ymag\":1,\"zfar\":10,\"znear\":0.1}},"
         "{\"name\":\"main\",\"type\":\"perspective\",\"perspective\":{\"yfov\":0.5,\"aspectRatio\":1.5,\"znear\":0.1}},"
         "{\"name\":\"second\",\"type\":\"perspective\",\"perspective\":{\"yfov\":1.0,\"znear\":0.1}}],"
-        "\"scenes\":[{\"nodes\":[0,1,2,3]}],\"nodes\":[{\"mesh\":0},{\"camera\":0},"
-        "{\"camera\":1,\"translation\":[0,1,5]},{\"camera\":2}]");
+        "\"scenes\":[{\"nodes\":[0,1,2,3]}],\"nodes\":[{\"mesh\":0},"
+        "{\"camera\":1,\"translation\":[0,1,5]},{\"camera\":2},{\"camera\":0}]");
     Scene sc = load(j);
     ASSERT_TRUE(sc.camera.has_value());
     EXPECT_EQ(sc.camera->name, "main");
@@ -521,13 +521,34 @@ TEST(GltfCameras, FovConversionAndFirstCamera) {
     EXPECT_FLOAT_EQ(sc.camera->aspect, 1.5f);
     EXPECT_FLOAT_EQ(sc.camera->camera_to_world.m[1][3], 1.0f);
     EXPECT_FLOAT_EQ(sc.camera->camera_to_world.m[2][3], 5.0f);
-    EXPECT_TRUE(has_note(sc, "orthographic"));
+    EXPECT_FALSE(sc.camera->orthographic);
+    EXPECT_TRUE(has_note(sc, "several cameras in the scene: using the first, 'main'"));
 
     Scene noaspect = load(d.json(kTriMesh + ",\"cameras\":[{\"type\":\"perspective\",\"perspective\":{\"yfov\":1.0,\"znear\":0.1}}],"
                                             "\"scenes\":[{\"nodes\":[0,1]}],\"nodes\":[{\"mesh\":0},{\"camera\":0}]"));
     ASSERT_TRUE(noaspect.camera.has_value());
     EXPECT_EQ(noaspect.camera->xfov_deg, 0.0f) << "renderer derives it from the image aspect";
     EXPECT_EQ(noaspect.camera->aspect, 0.0f);
+}
+
+// An orthographic camera: its half extents (the renderer keeps ymag and widens x to the
+// image); a zero magnification is refused.
+TEST(GltfCameras, OrthographicCameraKeepsItsExtents) {
+    Doc d = triangle_doc();
+    const auto doc = [&](const std::string& mags) {
+        return d.json(kTriMesh + ",\"cameras\":[{\"name\":\"top\",\"type\":\"orthographic\",\"orthographic\":{" + mags +
+                      ",\"zfar\":10,\"znear\":0.1}}],\"scenes\":[{\"nodes\":[0,1]}],"
+                      "\"nodes\":[{\"mesh\":0},{\"camera\":0,\"translation\":[0,0,4]}]");
+    };
+    const Scene sc = load(doc("\"xmag\":2,\"ymag\":-1.5"));
+    ASSERT_TRUE(sc.camera.has_value());
+    EXPECT_TRUE(sc.camera->orthographic);
+    EXPECT_EQ(sc.camera->name, "top");
+    EXPECT_FLOAT_EQ(sc.camera->xmag, 2.0f);
+    EXPECT_FLOAT_EQ(sc.camera->ymag, 1.5f);
+    EXPECT_FLOAT_EQ(sc.camera->camera_to_world.m[2][3], 4.0f);
+    EXPECT_FALSE(has_note(sc, "camera skipped"));
+    expect_error(doc("\"xmag\":2,\"ymag\":0"), {"camera 0 ('top')", "xmag and ymag must be finite and non-zero"});
 }
 
 TEST(GltfContainer, GlbWithBinChunkMatchesGltf) {

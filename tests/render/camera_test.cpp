@@ -9,6 +9,8 @@
 #include "renderer/camera.h"
 #include "scenes/load.h"
 
+using accel::Vec3f;
+
 namespace {
 
 constexpr double kPi = 3.14159265358979323846;
@@ -90,5 +92,51 @@ TEST(CourseFraming, SharedFilesOfBothAspects) {
         const renderer::Camera cam = renderer::make_camera(s, renderer::CameraMode::Auto, 480, 360).camera;
         EXPECT_NEAR(cam.hfov_deg(), 30.67, 0.01);
         EXPECT_NEAR(cam.vfov_deg(), fov_of(tan_half(49.13434) * 360.0 / 800.0), 0.01);
+    }
+}
+
+// An orthographic file camera (glTF or COLLADA), in either camera mode: parallel rays
+// along the view direction from a plane through the camera's position, over the file's
+// half extents, the one the format fixes kept and the other following the image.
+TEST(OrthographicCamera, RaysAreParallelOverTheFilesExtents) {
+    for (const scenes::SceneFormat format : {scenes::SceneFormat::Gltf, scenes::SceneFormat::Collada}) {
+        scenes::Scene s;
+        s.format = format;
+        scenes::Camera c;
+        c.name = "ortho";
+        c.orthographic = true;
+        c.xmag = 3.0f;
+        c.ymag = 1.0f;
+        c.camera_to_world = accel::Mat4f::translate({1, 2, 10});
+        s.camera = c;
+        for (const renderer::CameraMode mode : {renderer::CameraMode::Course, renderer::CameraMode::File}) {
+            const renderer::CameraSetup setup = renderer::make_camera(s, mode, 200, 100);
+            const renderer::Camera& cam = setup.camera;
+            ASSERT_TRUE(cam.is_orthographic()) << setup.description;
+            // glTF keeps ymag (1, so 2 wide at 2:1), COLLADA xmag (3, so 1.5 high).
+            const float hw = format == scenes::SceneFormat::Gltf ? 2.0f : 3.0f, hh = hw / 2.0f;
+            EXPECT_FLOAT_EQ(cam.half_width(), hw);
+            EXPECT_FLOAT_EQ(cam.half_height(), hh);
+            EXPECT_EQ(cam.hfov_deg(), 0.0f);
+            const accel::Ray centre = cam.generate_ray(0.5f, 0.5f), corner = cam.generate_ray(0.0f, 0.0f, 0.3f, 0.9f);
+            EXPECT_NEAR(accel::length(centre.org - Vec3f(1, 2, 10)), 0.0f, 1e-5f);
+            EXPECT_NEAR(accel::length(centre.dir - Vec3f(0, 0, -1)), 0.0f, 1e-6f);
+            EXPECT_EQ(corner.dir, centre.dir) << "parallel rays, no lens";
+            EXPECT_NEAR(accel::length(corner.org - Vec3f(1 - hw, 2 + hh, 10)), 0.0f, 1e-5f) << "top left";
+            EXPECT_NE(setup.description.find("orthographic"), std::string::npos) << setup.description;
+            // A pixel's footprint is the same at every distance along the view.
+            const renderer::PixelSpread sp = cam.pixel_spread(200, 100, 1);
+            Vec3f near_x, near_y, far_x, far_y;
+            renderer::camera_dpdxy(sp, centre.dir, Vec3f(1, 2, 5), Vec3f(0, 0, 1), near_x, near_y);
+            renderer::approximate_dpdxy(sp, Vec3f(1, 2, -500), Vec3f(0, 0, 1), far_x, far_y);
+            EXPECT_NEAR(near_x.x, 2.0f * hw / 200.0f, 1e-6f);
+            EXPECT_NEAR(near_y.y, 2.0f * hh / 100.0f, 1e-6f);
+            EXPECT_NEAR(accel::length(far_x - near_x), 0.0f, 1e-7f);
+            EXPECT_NEAR(accel::length(far_y - near_y), 0.0f, 1e-7f);
+        }
+        // Asking for a field of view makes it a perspective camera.
+        renderer::CameraOverrides ov;
+        ov.hfov_deg = 40.0f;
+        EXPECT_FALSE(renderer::make_camera(s, renderer::CameraMode::File, 200, 100, ov).camera.is_orthographic());
     }
 }
