@@ -145,6 +145,98 @@ bool matrix_finite(const Mat4f& m) {
     return true;
 }
 
+/// Triangles of a polygon with corners p[0..n), as corner triples appended to `out`, in
+/// the polygon's winding. A convex polygon (every turn the same way about its Newell
+/// normal) is fanned from its first corner, as the loader always did; a concave one, as
+/// exporters write n-gons, is cut by ear clipping (Meisters 1975; Eberly, "Triangulation
+/// by Ear Clipping", 2002) in the plane of its normal's dominant axis, so that no
+/// triangle covers the notch a fan would fill. Ears are kept in flags and only a cut
+/// corner's neighbours are tested again, each against the reflex corners alone: O(n r)
+/// for r reflex corners, charged to `budget`. A polygon with no ear left (self-
+/// intersecting, or folded in 3D), or past the budget, has its remainder fanned: false
+/// then, for a note. Straight corners left on a line by the cuts are dropped, so a
+/// clipped polygon may have fewer than n - 2 triangles, none of them without area.
+bool triangulate_polygon(const Vec3f* p, uint32_t n, std::vector<uint32_t>& out, uint64_t& budget) {
+    std::vector<uint32_t> prev(n), next(n);
+    for (uint32_t k = 0; k < n; ++k) prev[k] = (k + n - 1) % n, next[k] = (k + 1) % n;
+    const auto fan_from = [&](uint32_t first, uint32_t count) {
+        for (uint32_t b = next[first], k = 2; k < count; ++k, b = next[b]) out.insert(out.end(), {first, b, next[b]});
+    };
+    if (n == 3) return fan_from(0, 3), true;
+    // Newell's normal; the 2D projection drops its largest axis and keeps its sign, so
+    // that the polygon's own winding turns counter-clockwise (positive cross products).
+    Vec3f nn(0.0f);
+    for (uint32_t k = 0; k < n; ++k) {
+        const Vec3f& a = p[k];
+        const Vec3f& b = p[next[k]];
+        nn = nn + Vec3f((a.y - b.y) * (a.z + b.z), (a.z - b.z) * (a.x + b.x), (a.x - b.x) * (a.y + b.y));
+    }
+    const float ax = std::abs(nn.x), ay = std::abs(nn.y), az = std::abs(nn.z);
+    if (!(std::max({ax, ay, az}) > 0.0f)) return fan_from(0, n), true;  // no area: as before
+    const int drop = ax >= ay && ax >= az ? 0 : ay >= az ? 1 : 2;
+    const float sign = nn[drop] > 0.0f ? 1.0f : -1.0f;
+    const int u = (drop + 1) % 3, v = (drop + 2) % 3;
+    std::vector<float> x(n), y(n);
+    for (uint32_t k = 0; k < n; ++k) x[k] = p[k][u], y[k] = p[k][v] * sign;
+    const auto cross = [&](uint32_t a, uint32_t b, uint32_t c) {
+        return (x[b] - x[a]) * (y[c] - y[a]) - (y[b] - y[a]) * (x[c] - x[a]);
+    };
+    // Reflex (or straight) corners; a convex polygon has none and is fanned.
+    std::vector<uint8_t> reflex(n), removed(n, 0), ear(n, 0);
+    std::vector<uint32_t> reflexes;
+    for (uint32_t k = 0; k < n; ++k)
+        if ((reflex[k] = !(cross(prev[k], k, next[k]) > 0.0f))) reflexes.push_back(k);
+    bool turns_back = false;
+    for (uint32_t k : reflexes) turns_back |= cross(prev[k], k, next[k]) < 0.0f;
+    if (!turns_back) return fan_from(0, n), true;
+    const auto is_ear = [&](uint32_t b) {
+        if (reflex[b]) return false;
+        const uint32_t a = prev[b], c = next[b];
+        budget -= std::min<uint64_t>(budget, reflexes.size() + 1);
+        for (uint32_t q : reflexes) {
+            if (removed[q] || q == a || q == c) continue;
+            // A corner at the same place as the ear's (a polygon touching itself) does
+            // not block it.
+            if ((x[q] == x[a] && y[q] == y[a]) || (x[q] == x[c] && y[q] == y[c])) continue;
+            if (cross(a, b, q) >= 0.0f && cross(b, c, q) >= 0.0f && cross(c, a, q) >= 0.0f) return false;
+        }
+        return true;
+    };
+    for (uint32_t k = 0; k < n; ++k) ear[k] = is_ear(k);
+    uint32_t left = n, k = 0, misses = 0;
+    const auto unlink = [&](uint32_t b) {
+        const uint32_t a = prev[b], c = next[b];
+        removed[b] = 1;
+        next[a] = c;
+        prev[c] = a;
+        --left;
+        for (uint32_t q : {a, c}) {
+            reflex[q] = !(cross(prev[q], q, next[q]) > 0.0f);
+            ear[q] = is_ear(q);
+        }
+        k = c;
+        misses = 0;
+    };
+    while (left > 3) {
+        if (budget == 0 || misses > left) return fan_from(k, left), false;
+        // A straight corner (on the line of its neighbours, or a spike of no width) is
+        // dropped without a triangle: the polygon's area is the same without it.
+        if (cross(prev[k], k, next[k]) == 0.0f) {
+            unlink(k);
+            continue;
+        }
+        if (!ear[k]) {
+            k = next[k];
+            ++misses;
+            continue;
+        }
+        out.insert(out.end(), {prev[k], k, next[k]});
+        unlink(k);
+    }
+    if (cross(prev[k], k, next[k]) != 0.0f) fan_from(k, 3);
+    return true;
+}
+
 /// A corner's position, normal and texture coordinate, each an index into its
 /// geometry's sources numbered one after another (source_base); kNone where absent.
 struct WeldKey {
@@ -498,6 +590,9 @@ private:
     std::unordered_set<const void*> missing_images_;  // warned about once each
     std::unordered_map<const void*, uint32_t> source_bases_;  // per geometry, for welding keys
     uint64_t next_base_ = 0;
+    // Work ear clipping may do in one document (triangulate_polygon): far more than any
+    // real file's concave n-gons ask, far less than a hostile one's could.
+    uint64_t clip_budget_ = uint64_t(1) << 31;
     uint32_t default_material_ = kNone;
     uint64_t triangles_ = 0, local_triangles_ = 0, node_visits_ = 0;
     // Instancing: how often the scene places each (geometry, material binding)
@@ -632,8 +727,11 @@ void Loader::parse_primitive(pugi::xml_node prim, LocalGeometry& g) {
     (has_uvs ? grp.uvs_seen : grp.missing_uvs) = true;
 
     std::vector<uint32_t> corners;  // welded vertex of each corner of the current polygon
-    uint64_t skipped = 0;
-    auto emit = [&](const uint32_t* c, uint32_t n) {
+    std::vector<Vec3f> corner_pos;  // and its position, for triangulate_polygon
+    std::vector<uint32_t> tri;
+    uint64_t skipped = 0, unclipped = 0;
+    // as_fan: <trifans>, whose corners name a fan whatever the polygon's shape.
+    auto emit = [&](const uint32_t* c, uint32_t n, bool as_fan = false) {
         if (n < 3) {
             ++skipped;
             return;
@@ -676,11 +774,19 @@ void Loader::parse_primitive(pugi::xml_node prim, LocalGeometry& g) {
         local_triangles_ += n - 2;
         if (local_triangles_ > limits_.max_triangles)
             fail(prim, fmt::format("geometry holds more than {} triangles", limits_.max_triangles));
-        for (uint32_t k = 1; k + 1 < n; ++k) {
-            grp.indices.push_back(corners[0]);
-            grp.indices.push_back(corners[k]);
-            grp.indices.push_back(corners[k + 1]);
+        if (n == 3) {
+            grp.indices.insert(grp.indices.end(), corners.begin(), corners.end());
+            return;
         }
+        corner_pos.clear();
+        for (uint32_t k : corners) corner_pos.push_back(grp.positions[k]);
+        tri.clear();
+        if (as_fan) {
+            for (uint32_t k = 1; k + 1 < n; ++k) tri.insert(tri.end(), {0, k, k + 1});
+        } else if (!triangulate_polygon(corner_pos.data(), n, tri, clip_budget_)) {
+            ++unclipped;
+        }
+        for (uint32_t k : tri) grp.indices.push_back(corners[k]);
     };
 
     std::vector<uint32_t> p;
@@ -725,7 +831,7 @@ void Loader::parse_primitive(pugi::xml_node prim, LocalGeometry& g) {
                 fail(pe, fmt::format("holds {} indices, not a multiple of {} inputs", p.size(), stride));
             const uint32_t n = uint32_t(p.size() / stride);
             if (tag == "trifans") {
-                emit(p.data(), n);
+                emit(p.data(), n, true);
                 continue;
             }
             if (n < 3) {
@@ -757,6 +863,10 @@ void Loader::parse_primitive(pugi::xml_node prim, LocalGeometry& g) {
     if (skipped)
         note(fmt::format("geometry '{}': skipped {} polygon(s) with fewer than 3 corners in <{}>",
                          g.name, skipped, tag));
+    if (unclipped)
+        note(fmt::format("geometry '{}': {} concave polygon(s) in <{}> self-intersecting, not planar or "
+                         "past the triangulation budget; fanned where no ear was cut",
+                         g.name, unclipped, tag));
 }
 
 uint32_t Loader::material_index(pugi::xml_node mat) {

@@ -3,6 +3,8 @@
 
 #include <gtest/gtest.h>
 
+#include <fmt/format.h>
+
 #include <cmath>
 #include <filesystem>
 #include <fstream>
@@ -351,6 +353,96 @@ TEST(ColladaPrimitives, PolylistFanTriangulatesQuadAndPentagon) {
     EXPECT_EQ(m.indices, expected);
     expect_near(m.positions[8], {5, 1, 0});
     EXPECT_TRUE(has_note(s, "fewer than 3 corners")) << "the 2-corner polygon is reported";
+}
+
+namespace {
+
+/// A polygon of corners (x, y) in the plane z = 0, as one <polylist> of geometry "g",
+/// placed under `transforms`.
+Scene polygon_scene(const std::vector<std::pair<float, float>>& xy, const std::string& transforms = "",
+                    const std::string& tag = "polylist") {
+    std::string pos, p;
+    for (size_t k = 0; k < xy.size(); ++k) {
+        pos += fmt::format("{} {} 0 ", xy[k].first, xy[k].second);
+        p += std::to_string(k) + " ";
+    }
+    const std::string prim =
+        tag == "polylist" ? "<polylist count=\"1\">" + inputs("g") + "<vcount>" + std::to_string(xy.size()) +
+                                "</vcount><p>" + p + "</p></polylist>"
+                          : "<" + tag + " count=\"1\">" + inputs("g") + "<p>" + p + "</p></" + tag + ">";
+    return load(dae(geometries(geometry("g", pos, int(xy.size()), prim)), node("n", transforms, "g")));
+}
+
+/// Twice the signed area of each triangle about `normal`, summed, and the least of them.
+std::pair<double, double> signed_areas(const scenes::Mesh& m, const Vec3f& normal) {
+    double sum = 0, least = 1e30;
+    for (size_t t = 0; t < m.indices.size(); t += 3) {
+        const Vec3f a = m.positions[m.indices[t]], b = m.positions[m.indices[t + 1]], c = m.positions[m.indices[t + 2]];
+        const double s = accel::dot(accel::cross(b - a, c - a), normal);
+        sum += s;
+        least = std::min(least, s);
+    }
+    return {sum, least};
+}
+
+/// Is (x, y) inside the L of [0, 2] x [0, 1] and [0, 1] x [0, 2]?
+bool in_l(float x, float y) { return x >= -1e-5f && y >= -1e-5f && (x <= 1 + 1e-5f ? y <= 2 + 1e-5f : x <= 2 + 1e-5f && y <= 1 + 1e-5f); }
+
+}  // namespace
+
+// A concave n-gon, as exporters write them, is cut by ear clipping: its triangles tile it
+// (their areas add up to its own, each turns its way, none covers its notch), where a fan
+// from its first corner would cover the notch. Convex polygons keep the fan (above), and
+// <trifans> stay fans whatever their shape.
+TEST(ColladaPrimitives, ConcavePolygonsAreCutByEarClipping) {
+    // An L (area 3) starting at a corner that does not see the whole L.
+    const std::vector<std::pair<float, float>> l = {{2, 0}, {2, 1}, {1, 1}, {1, 2}, {0, 2}, {0, 0}};
+    for (const std::string& tag : {std::string("polylist"), std::string("polygons")}) {
+        const Scene s = polygon_scene(l, "", tag);
+        const scenes::Mesh& m = s.meshes[0];
+        ASSERT_EQ(m.num_triangles(), 4u) << tag;
+        const auto [sum, least] = signed_areas(m, Vec3f(0, 0, 1));
+        EXPECT_NEAR(sum, 6.0, 1e-5) << tag;
+        EXPECT_GT(least, 0.0) << tag << ": every triangle turns the polygon's way";
+        for (size_t t = 0; t < m.indices.size(); t += 3) {
+            const Vec3f c = (m.positions[m.indices[t]] + m.positions[m.indices[t + 1]] + m.positions[m.indices[t + 2]]) / 3.0f;
+            EXPECT_TRUE(in_l(c.x, c.y)) << tag << ": a triangle covers the notch, centroid " << c.x << " " << c.y;
+        }
+        EXPECT_FALSE(has_note(s, "concave polygon")) << tag;
+    }
+    // Turned into another plane, mirrored by the winding: the same tiling.
+    const Scene turned = polygon_scene(l, "<rotate>1 2 3 50</rotate>");
+    const Vec3f n = accel::normalize(turned.meshes[0].normals.empty()
+                                         ? accel::cross(turned.meshes[0].positions[1] - turned.meshes[0].positions[0],
+                                                        turned.meshes[0].positions[2] - turned.meshes[0].positions[0])
+                                         : Vec3f(0.0f));
+    const auto [tsum, tleast] = signed_areas(turned.meshes[0], n);
+    EXPECT_NEAR(tsum, 6.0, 1e-4);
+    EXPECT_GT(tleast, 0.0);
+    const Scene reversed = polygon_scene({l.rbegin(), l.rend()});
+    EXPECT_NEAR(signed_areas(reversed.meshes[0], Vec3f(0, 0, -1)).first, 6.0, 1e-5) << "clockwise: faces -z";
+    EXPECT_GT(signed_areas(reversed.meshes[0], Vec3f(0, 0, -1)).second, 0.0);
+    // A comb of 100 teeth, 1 x 4 each, on a 200 x 1 back (402 corners, area 600): tiled.
+    std::vector<std::pair<float, float>> comb = {{0, 0}, {200, 0}};
+    for (int t = 99; t >= 0; --t) {
+        comb.push_back({2.0f * float(t) + 2.0f, 5.0f});
+        comb.push_back({2.0f * float(t) + 1.0f, 5.0f});
+        comb.push_back({2.0f * float(t) + 1.0f, 1.0f});
+        comb.push_back({2.0f * float(t), 1.0f});
+    }
+    const Scene cs = polygon_scene(comb);
+    EXPECT_LE(cs.meshes[0].num_triangles(), comb.size() - 2);
+    const auto [csum, cleast] = signed_areas(cs.meshes[0], Vec3f(0, 0, 1));
+    EXPECT_NEAR(csum, 2.0 * 600.0, 1e-2);
+    EXPECT_GT(cleast, 0.0);
+    // A <trifans> fan is the file's own triangulation.
+    const Scene fan = polygon_scene(l, "", "trifans");
+    const std::vector<uint32_t> fanned = {0, 1, 2, 0, 2, 3, 0, 3, 4, 0, 4, 5};
+    EXPECT_EQ(fan.meshes[0].indices, fanned);
+    // A self-intersecting polygon still loads, as triangles over its corners.
+    const Scene bow = polygon_scene({{0, 0}, {2, 2}, {2, 0}, {1, 3}, {0, 2}});
+    EXPECT_GE(bow.meshes[0].num_triangles(), 1u);
+    EXPECT_LE(bow.meshes[0].num_triangles(), 3u);
 }
 
 TEST(ColladaPrimitives, PolygonsElementIsTriangulatedToo) {
