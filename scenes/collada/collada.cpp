@@ -151,8 +151,8 @@ bool matrix_finite(const Mat4f& m) {
 /// exporters write n-gons, is cut by ear clipping (Meisters 1975; Eberly, "Triangulation
 /// by Ear Clipping", 2002) in the plane of its normal's dominant axis, so that no
 /// triangle covers the notch a fan would fill. Ears are kept in flags and only a cut
-/// corner's neighbours are tested again, each against the reflex corners alone: O(n r)
-/// for r reflex corners, charged to `budget`. A polygon with no ear left (self-
+/// corner's neighbours are tested again (every corner once more before giving up), each
+/// against the reflex corners alone: O(n r) for r reflex corners, charged to `budget`. A polygon with no ear left (self-
 /// intersecting, or folded in 3D), or past the budget, has its remainder fanned: false
 /// then, for a note. Straight corners left on a line by the cuts are dropped, so a
 /// clipped polygon may have fewer than n - 2 triangles, none of them without area.
@@ -194,7 +194,9 @@ bool triangulate_polygon(const Vec3f* p, uint32_t n, std::vector<uint32_t>& out,
         const uint32_t a = prev[b], c = next[b];
         budget -= std::min<uint64_t>(budget, reflexes.size() + 1);
         for (uint32_t q : reflexes) {
-            if (removed[q] || q == a || q == c) continue;
+            // Only corners still reflex (a cut can turn one convex, never back), and never
+            // the ear's own.
+            if (removed[q] || !reflex[q] || q == a || q == b || q == c) continue;
             // A corner at the same place as the ear's (a polygon touching itself) does
             // not block it.
             if ((x[q] == x[a] && y[q] == y[a]) || (x[q] == x[c] && y[q] == y[c])) continue;
@@ -204,6 +206,7 @@ bool triangulate_polygon(const Vec3f* p, uint32_t n, std::vector<uint32_t>& out,
     };
     for (uint32_t k = 0; k < n; ++k) ear[k] = is_ear(k);
     uint32_t left = n, k = 0, misses = 0;
+    bool fresh = true;  // every flag tested since the last cut
     const auto unlink = [&](uint32_t b) {
         const uint32_t a = prev[b], c = next[b];
         removed[b] = 1;
@@ -216,8 +219,16 @@ bool triangulate_polygon(const Vec3f* p, uint32_t n, std::vector<uint32_t>& out,
         }
         k = c;
         misses = 0;
+        fresh = false;
     };
     while (left > 3) {
+        if (misses > left && !fresh) {
+            // A flag goes stale when a reflex corner that blocked it turns convex by a cut
+            // that is not its neighbour's: test the ring once more before giving up.
+            for (uint32_t q = next[k], c = 0; c < left; ++c, q = next[q]) ear[q] = is_ear(q);
+            fresh = true;
+            misses = 0;
+        }
         if (budget == 0 || misses > left) return fan_from(k, left), false;
         // A straight corner (on the line of its neighbours, or a spike of no width) is
         // dropped without a triangle: the polygon's area is the same without it.
