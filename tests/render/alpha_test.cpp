@@ -234,8 +234,9 @@ TEST(AlphaVertex, VertexAlphaCutsAndBlendsTheQuad) {
                 const float x = pos(rng);
                 const bool hit = acc->occluded(accel::Ray{Vec3f(x, 0.0f, pos(rng)), Vec3f(0, 1, 0), 1e-4f, 10.0f}, st);
                 blocked += hit;
-                if (mode == scenes::AlphaMode::Mask && std::abs(x) > 0.02f)
+                if (mode == scenes::AlphaMode::Mask && std::abs(x) > 0.02f) {
                     ASSERT_EQ(hit, x > 0.0f) << backend << " x " << x;
+                }
                 if (x > 0.8f) ++near_opaque, near_opaque_blocked += hit;
             }
             const double se = std::sqrt(0.25 / kRays);
