@@ -160,33 +160,9 @@ CameraSetup make_camera(const scenes::Scene& scene, CameraMode mode, int width, 
     std::string what;
     // An orthographic file camera is used as written in either mode (the course's
     // framing is a perspective one's), unless a field of view is asked for.
+    const bool ortho = scene.camera && scene.camera->orthographic && !ov.hfov_deg;
     float half_w = 0, half_h = 0;
-    if (scene.camera && scene.camera->orthographic && !ov.hfov_deg) {
-        const scenes::Camera& c = *scene.camera;
-        pos = c.camera_to_world.transform_point(Vec3f(0.0f));
-        target = pos + c.camera_to_world.transform_vector(Vec3f(0.0f, 0.0f, -1.0f));
-        up = c.camera_to_world.transform_vector(Vec3f(0.0f, 1.0f, 0.0f));
-        // Keep the magnification the file fixes (glTF: ymag, as its yfov; COLLADA: xmag,
-        // as its xfov); the other follows from the image's aspect.
-        if (c.ymag > 0 && (c.xmag <= 0 || scene.format == scenes::SceneFormat::Gltf)) {
-            half_h = c.ymag;
-            half_w = half_h * aspect;
-        } else {
-            half_w = c.xmag;
-            half_h = half_w / aspect;
-        }
-        if (ov.position) pos = *ov.position;
-        if (ov.target) target = *ov.target;
-        if (ov.up) up = *ov.up;
-        CameraSetup setup{Camera::orthographic(pos, target, up, half_w, half_h), {}};
-        setup.description = fmt::format(
-            "[PathTracer] Camera: file camera '{}', orthographic{}; at ({:.3g}, {:.3g}, {:.3g}) looking at ({:.3g}, "
-            "{:.3g}, {:.3g}), view {:.3g} x {:.3g}",
-            c.name, ov.position || ov.target || ov.up ? ", with command-line overrides" : "", pos.x, pos.y, pos.z,
-            target.x, target.y, target.z, 2 * half_w, 2 * half_h);
-        return setup;
-    }
-    if (scene.camera && mode == CameraMode::Course) {
+    if (scene.camera && mode == CameraMode::Course && !ortho) {
         const scenes::Camera& c = *scene.camera;
         // The course's Camera::configure sets up an 800x600 window: it takes the file's
         // xfov and vfov (yfov, else from aspect_ratio) and widens whichever is too narrow
@@ -213,15 +189,26 @@ CameraSetup make_camera(const scenes::Scene& scene, CameraMode mode, int width, 
         pos = c.camera_to_world.transform_point(Vec3f(0.0f));
         target = pos + c.camera_to_world.transform_vector(Vec3f(0.0f, 0.0f, -1.0f));
         up = c.camera_to_world.transform_vector(Vec3f(0.0f, 1.0f, 0.0f));
-        // Keep whichever fov the file fixes; derive the other from the image aspect.
-        if (c.yfov_deg > 0 && (c.xfov_deg <= 0 || scene.format == scenes::SceneFormat::Gltf)) {
+        what = fmt::format("file camera '{}'", c.name);
+        // Keep whichever fov (orthographic: magnification) the file fixes, glTF's y and
+        // COLLADA's x; derive the other from the image aspect.
+        if (ortho) {
+            if (c.ymag > 0 && (c.xmag <= 0 || scene.format == scenes::SceneFormat::Gltf)) {
+                half_h = c.ymag;
+                half_w = half_h * aspect;
+            } else {
+                half_w = c.xmag;
+                half_h = half_w / aspect;
+            }
+            hfov = vfov = 0.0f;
+            what += ", orthographic";
+        } else if (c.yfov_deg > 0 && (c.xfov_deg <= 0 || scene.format == scenes::SceneFormat::Gltf)) {
             vfov = c.yfov_deg;
             hfov = 2.0f * deg(std::atan(std::tan(0.5f * vfov * kDegToRad) * aspect));
         } else {
             hfov = c.xfov_deg;
             vfov = 2.0f * deg(std::atan(std::tan(0.5f * hfov * kDegToRad) / aspect));
         }
-        what = fmt::format("file camera '{}'", c.name);
     } else {
         // No camera: look at the bounds from the front (+Z for Y-up files, -Y for Z-up),
         // slightly above, far enough that the bounding sphere fits the vertical fov.
@@ -243,11 +230,13 @@ CameraSetup make_camera(const scenes::Scene& scene, CameraMode mode, int width, 
         vfov = 2.0f * deg(std::atan(std::tan(0.5f * hfov * kDegToRad) / aspect));
     }
     if (ov.position || ov.target || ov.up || ov.hfov_deg) what += ", with command-line overrides";
-    CameraSetup setup{Camera(pos, target, up, hfov, vfov), {}};
+    CameraSetup setup{ortho ? Camera::orthographic(pos, target, up, half_w, half_h) : Camera(pos, target, up, hfov, vfov),
+                      {}};
     setup.description = fmt::format(
-        "[PathTracer] Camera: {}; at ({:.3g}, {:.3g}, {:.3g}) looking at ({:.3g}, {:.3g}, "
-        "{:.3g}), fov {:.2f} x {:.2f} deg",
-        what, pos.x, pos.y, pos.z, target.x, target.y, target.z, hfov, vfov);
+        "[PathTracer] Camera: {}; at ({:.3g}, {:.3g}, {:.3g}) looking at ({:.3g}, {:.3g}, {:.3g}), {}", what, pos.x,
+        pos.y, pos.z, target.x, target.y, target.z,
+        ortho ? fmt::format("view {:.3g} x {:.3g}", 2 * half_w, 2 * half_h)
+              : fmt::format("fov {:.2f} x {:.2f} deg", hfov, vfov));
     return setup;
 }
 

@@ -152,9 +152,9 @@ bool matrix_finite(const Mat4f& m) {
 /// by Ear Clipping", 2002) in the plane of its normal's dominant axis, so that no
 /// triangle covers the notch a fan would fill. Ears are kept in flags and only a cut
 /// corner's neighbours are tested again (every corner once more before giving up), each
-/// against the reflex corners alone: O(n r) for r reflex corners, charged to `budget`. A polygon with no ear left (self-
-/// intersecting, or folded in 3D), or past the budget, has its remainder fanned: false
-/// then, for a note. Straight corners left on a line by the cuts are dropped, so a
+/// against the reflex corners alone: O(n r) for r reflex corners, charged to `budget`.
+/// A polygon with no ear left (self-intersecting, or folded in 3D), or past the budget,
+/// has its remainder fanned: false then, for a note. Straight corners left on a line by the cuts are dropped, so a
 /// clipped polygon may have fewer than n - 2 triangles, none of them without area.
 bool triangulate_polygon(const Vec3f* p, uint32_t n, std::vector<uint32_t>& out, uint64_t& budget) {
     std::vector<uint32_t> prev(n), next(n);
@@ -789,13 +789,13 @@ void Loader::parse_primitive(pugi::xml_node prim, LocalGeometry& g) {
             grp.indices.insert(grp.indices.end(), corners.begin(), corners.end());
             return;
         }
-        corner_pos.clear();
-        for (uint32_t k : corners) corner_pos.push_back(grp.positions[k]);
         tri.clear();
         if (as_fan) {
             for (uint32_t k = 1; k + 1 < n; ++k) tri.insert(tri.end(), {0, k, k + 1});
-        } else if (!triangulate_polygon(corner_pos.data(), n, tri, clip_budget_)) {
-            ++unclipped;
+        } else {
+            corner_pos.clear();
+            for (uint32_t k : corners) corner_pos.push_back(grp.positions[k]);
+            if (!triangulate_polygon(corner_pos.data(), n, tri, clip_budget_)) ++unclipped;
         }
         for (uint32_t k : tri) grp.indices.push_back(corners[k]);
     };
@@ -992,21 +992,9 @@ uint32_t Loader::diffuse_texture(pugi::xml_node effect, pugi::xml_node tex, cons
     }
     std::filesystem::path path(uri_path(uri));
     if (path.is_relative() && !dir_.empty()) path = std::filesystem::path(dir_) / path;
-    // Only a regular file: a FIFO or device the document names would block or never end.
-    std::error_code ec;
-    std::ifstream in;
-    if (std::filesystem::is_regular_file(path, ec)) in.open(path, std::ios::binary);
-    std::string bytes;
-    if (in.is_open()) {
-        in.seekg(0, std::ios::end);
-        const std::streamoff len = in.tellg();
-        if (len > 0 && uint64_t(len) <= (uint64_t(1) << 30)) {
-            bytes.resize(size_t(len));
-            in.seekg(0, std::ios::beg);
-            if (!in.read(bytes.data(), len)) bytes.clear();
-        }
-    }
-    if (bytes.empty()) {
+    std::vector<unsigned char> bytes;
+    std::string why;
+    if (!scenes::image::read_regular_file(path.string(), uint64_t(1) << 30, bytes, why) || bytes.empty()) {
         if (missing_images_.insert(image.internal_object()).second)
             scene_.warnings.push_back(fmt::format("{}: material '{}': image '{}' ({}): file not found or unreadable; "
                                                   "rendered without it",
@@ -1014,8 +1002,7 @@ uint32_t Loader::diffuse_texture(pugi::xml_node effect, pugi::xml_node tex, cons
         return textures_[key] = kNoTexture;
     }
     Texture t;
-    std::string why;
-    if (!scenes::image::decode_texture(reinterpret_cast<const unsigned char*>(bytes.data()), bytes.size(), "RGB", true, t, why))
+    if (!scenes::image::decode_texture(bytes.data(), bytes.size(), "RGB", true, t, why))
         fail(image, fmt::format("{}: {}", path.string(), why));
     t.name = clip(uri);
     t.wrap_s = ws;

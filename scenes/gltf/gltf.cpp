@@ -154,23 +154,10 @@ bool fs_exists(const std::string& path, void* user) {
 std::string fs_expand(const std::string& path, void*) { return path; }  // no wordexp
 
 bool fs_read(std::vector<unsigned char>* out, std::string* err, const std::string& path, void*) {
-    std::error_code ec;
-    if (!std::filesystem::is_regular_file(path, ec)) {
-        if (err) *err = "not a regular file";
-        return false;
-    }
-    uint64_t size = std::filesystem::file_size(path, ec);
-    if (ec || size > kMaxExternalFileBytes) {
-        if (err) *err = ec ? ec.message() : "file too large";
-        return false;
-    }
-    std::ifstream f(path, std::ios::binary);
-    out->resize(size_t(size));
-    if (!f || (size > 0 && !f.read(reinterpret_cast<char*>(out->data()), std::streamsize(size)))) {
-        if (err) *err = "read failed";
-        return false;
-    }
-    return true;
+    std::string why;
+    if (image::read_regular_file(path, kMaxExternalFileBytes, *out, why)) return true;
+    if (err) *err = why;
+    return false;
 }
 
 bool fs_write(std::string*, const std::string&, const std::vector<unsigned char>&, void*) {

@@ -4,6 +4,8 @@
 #include <array>
 #include <cmath>
 #include <cstring>
+#include <filesystem>
+#include <fstream>
 #include <limits>
 #include <vector>
 
@@ -190,6 +192,27 @@ void build_mip_pyramid(Texture& t) {
     std::memcpy(t.data.data(), level0.data(), std::min(bytes0, level0.size()));
     level0 = {};
     fill_levels(t);
+}
+
+bool read_regular_file(const std::string& path, uint64_t max_bytes, std::vector<unsigned char>& out,
+                       std::string& why) {
+    std::error_code ec;
+    if (!std::filesystem::is_regular_file(path, ec)) {
+        why = "not a regular file";
+        return false;
+    }
+    const uint64_t size = std::filesystem::file_size(path, ec);
+    if (ec || size > max_bytes) {
+        why = ec ? ec.message() : "file too large";
+        return false;
+    }
+    std::ifstream f(path, std::ios::binary);
+    out.resize(size_t(size));
+    if (!f || (size > 0 && !f.read(reinterpret_cast<char*>(out.data()), std::streamsize(size)))) {
+        why = "read failed";
+        return false;
+    }
+    return true;
 }
 
 bool decode_texture(const unsigned char* bytes, size_t size, const char* channels, bool srgb,

@@ -5,6 +5,7 @@
 #include <cstddef>
 #include <cstdint>
 #include <string>
+#include <vector>
 
 #include "scenes/scene.h"
 
@@ -15,6 +16,12 @@ namespace scenes::image {
 /// claiming more is bad input, and refusing it before stb allocates keeps hostile files
 /// from exhausting memory.
 inline constexpr uint64_t kMaxImagePixels = uint64_t(1) << 26;
+
+/// The whole of the file at `path`, the loaders' external files (glTF buffers and images,
+/// COLLADA images): only a regular file (a FIFO or device a hostile document names would
+/// block or never end) of at most `max_bytes`. False with `why` otherwise.
+bool read_regular_file(const std::string& path, uint64_t max_bytes, std::vector<unsigned char>& out,
+                       std::string& why);
 
 /// Reads width/height from a PNG or JPEG header without decoding. Returns false (and
 /// sets `why`) for other formats or a malformed header.
