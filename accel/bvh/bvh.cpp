@@ -346,7 +346,7 @@ std::optional<BvhReport> inspect_bvh(const Accelerator& accel) {
                             bottom = false;
                             break;
                         }
-                        const uint32_t f = cc[l] & ~WideNode::kLeaf, nb = cn[l] & ~WideNode::kSpheres;
+                        const uint32_t f = cc[l] & ~WideNode::kLeaf, nb = cn[l] & WideNode::kBlockMask;
                         first = std::min(first, f), end = std::max(end, f + nb), total += nb;
                     }
                     const uint32_t want =
@@ -356,12 +356,17 @@ std::optional<BvhReport> inspect_bvh(const Accelerator& accel) {
                     continue;
                 }
                 const uint32_t first = child[i] & ~WideNode::kLeaf;
-                const uint32_t nb = count[i] & ~WideNode::kSpheres;
+                const uint32_t nb = count[i] & WideNode::kBlockMask;
                 const bool spheres = count[i] & WideNode::kSpheres;
                 if (nb == 0 || uint64_t(first) + nb > w.blocks.size()) {
                     fail(r.wide_ok, "wide leaf block range bad");
                     continue;
                 }
+                uint32_t filled_lanes = 0;
+                for (uint32_t k = first; k < first + nb; ++k)
+                    for (uint32_t p : w.blocks[k].prim) filled_lanes += p != Block::kNone;
+                if (((count[i] >> WideNode::kPrimShift) & WideNode::kPrimMask) != filled_lanes)
+                    fail(r.wide_ok, "wide leaf's primitive count is not its blocks' filled lanes");
                 for (uint32_t k = first; k < first + nb; ++k) {
                     ++block_uses[k];
                     const Block& blk = w.blocks[k];

@@ -382,7 +382,7 @@ private:
     void leaf(WideNode& w, int lane, const Kid& c, uint32_t first) {
         const bool spheres = g_[order_[c.offset].geom].type != GeometryType::Triangles;  // one type per leaf
         w.child[lane] = WideNode::kLeaf | first;
-        w.count[lane] = nblocks(c) | (spheres ? WideNode::kSpheres : 0u);
+        w.count[lane] = WideNode::leaf_count(nblocks(c), c.count, spheres);
         fill_leaf(first, c.offset, c.count);
     }
 
@@ -449,7 +449,7 @@ double wide_sah_cost(const WideBvh& w) {
                 continue;
             }
             // The blocks' filled lanes are the leaf's primitives.
-            const uint32_t first = n.child[i] & ~WideNode::kLeaf, nb = n.count[i] & ~WideNode::kSpheres;
+            const uint32_t first = n.child[i] & ~WideNode::kLeaf, nb = n.count[i] & WideNode::kBlockMask;
             uint32_t prims = 0;
             for (uint32_t b = first; b < first + nb; ++b)
                 for (uint32_t p : w.blocks[b].prim) prims += p != Block::kNone;

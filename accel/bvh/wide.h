@@ -28,7 +28,9 @@ constexpr int kWidth = 8;
 struct alignas(64) WideNode {
     float b[6][kWidth];      ///< [lo.x, lo.y, lo.z, hi.x, hi.y, hi.z][lane]
     uint32_t child[kWidth];  ///< interior: WideNode index; leaf: kLeaf | first block; kEmpty
-    /// Leaf: number of blocks | kSpheres. Interior child whose lanes are all leaves (a
+    /// Leaf: number of blocks | (primitives << kPrimShift) | kSpheres; the primitive
+    /// count (the blocks' filled lanes) lets a counting traversal add a leaf's tests at
+    /// once (kernel.h, traverse). Interior child whose lanes are all leaves (a
     /// bottom node) of a tree with WideBvh::leaf_hints: where its blocks lie, as
     /// (number << kHintShift) | first, which the kernels prefetch on entering it
     /// (kernel.h, prefetch_leaves); 0 for any other interior child, or one whose
@@ -38,6 +40,12 @@ struct alignas(64) WideNode {
     static constexpr uint32_t kLeaf = 0x80000000u;
     static constexpr uint32_t kEmpty = 0xFFFFFFFFu;
     static constexpr uint32_t kSpheres = 0x80000000u;  ///< in count: the blocks hold spheres
+    static constexpr uint32_t kBlockMask = 0xFFFFu;     ///< in a leaf's count: its number of blocks
+    static constexpr uint32_t kPrimShift = 16;          ///< in a leaf's count: where its primitives start
+    static constexpr uint32_t kPrimMask = 0x7FFFu;      ///< the primitives, after the shift
+    static uint32_t leaf_count(uint32_t blocks, uint32_t prims, bool spheres) {
+        return blocks | prims << kPrimShift | (spheres ? kSpheres : 0u);
+    }
     static constexpr uint32_t kHintShift = 24;
     static constexpr uint32_t kHintBlocks = 1u << kHintShift;  ///< first block below this (64M triangles)
     static constexpr uint32_t kHintMaxBlocks = 32;             ///< 8 leaves of up to 16 primitives (sbvh)
