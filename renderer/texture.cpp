@@ -81,11 +81,16 @@ inline void add_texel(const uint8_t* p, float w, float* acc) {
 constexpr size_t kBytes(TexelFormat f) { return scenes::texel_format_bytes(f); }
 
 /// The texel uv falls in, as the renderer always read textures: x = floor(u w).
+struct TexelIndex {
+    uint32_t x, y;
+};
+inline TexelIndex nearest_texel(const Texture::Level& l, float u, float v) {
+    return {std::min(l.width - 1, uint32_t(u * float(l.width))), std::min(l.height - 1, uint32_t(v * float(l.height)))};
+}
 template <TexelFormat F, int NC, int NCOL>
 inline void nearest(const Texture& t, uint32_t level, float u, float v, float w, float* acc) {
     const Texture::Level& l = t.levels[level];
-    const uint32_t x = std::min(l.width - 1, uint32_t(u * float(l.width)));
-    const uint32_t y = std::min(l.height - 1, uint32_t(v * float(l.height)));
+    const auto [x, y] = nearest_texel(l, u, v);
     add_texel<F, NC, NCOL>(t.data.data() + l.offset + (size_t(y) * l.width + x) * (NC * kBytes(F)), w, acc);
 }
 
@@ -290,8 +295,7 @@ float lookup_alpha(const Texture& t, const Vec2f& uv) {
     const float u = wrap_coord(uv.x, t.wrap_s), v = wrap_coord(uv.y, t.wrap_t);
     if (t.magnify_nearest) [[unlikely]] {
         // nearest()'s texel, as a NEAREST sampler's colour reads it at magnification.
-        const uint32_t x = std::min(l.width - 1, uint32_t(u * float(l.width)));
-        const uint32_t y = std::min(l.height - 1, uint32_t(v * float(l.height)));
+        const auto [x, y] = nearest_texel(l, u, v);
         return fetch(t, 0, x, y).a;
     }
     const Corners c = corners(t, l, u, v);

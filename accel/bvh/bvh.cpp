@@ -346,7 +346,7 @@ std::optional<BvhReport> inspect_bvh(const Accelerator& accel) {
                             bottom = false;
                             break;
                         }
-                        const uint32_t f = cc[l] & ~WideNode::kLeaf, nb = cn[l] & WideNode::kBlockMask;
+                        const uint32_t f = cc[l] & ~WideNode::kLeaf, nb = WideNode::leaf_blocks(cn[l]);
                         first = std::min(first, f), end = std::max(end, f + nb), total += nb;
                     }
                     const uint32_t want =
@@ -356,22 +356,19 @@ std::optional<BvhReport> inspect_bvh(const Accelerator& accel) {
                     continue;
                 }
                 const uint32_t first = child[i] & ~WideNode::kLeaf;
-                const uint32_t nb = count[i] & WideNode::kBlockMask;
+                const uint32_t nb = WideNode::leaf_blocks(count[i]);
                 const bool spheres = count[i] & WideNode::kSpheres;
                 if (nb == 0 || uint64_t(first) + nb > w.blocks.size()) {
                     fail(r.wide_ok, "wide leaf block range bad");
                     continue;
                 }
-                uint32_t filled_lanes = 0;
-                for (uint32_t k = first; k < first + nb; ++k)
-                    for (uint32_t p : w.blocks[k].prim) filled_lanes += p != Block::kNone;
-                if (((count[i] >> WideNode::kPrimShift) & WideNode::kPrimMask) != filled_lanes)
-                    fail(r.wide_ok, "wide leaf's primitive count is not its blocks' filled lanes");
+                uint32_t prims = 0;  // the blocks' filled lanes, which the lane's count must carry
                 for (uint32_t k = first; k < first + nb; ++k) {
                     ++block_uses[k];
                     const Block& blk = w.blocks[k];
                     for (int l = 0; l < 4; ++l) {
                         if (blk.prim[l] == Block::kNone) continue;
+                        ++prims;
                         const PrimRef ref = lane_primitive(w, blk, l);
                         if (ref.geom >= b->geometry_.size() || ref.prim >= b->geometry_[ref.geom].num_prims) {
                             fail(r.wide_ok, "block lane names no primitive");
@@ -399,6 +396,8 @@ std::optional<BvhReport> inspect_bvh(const Accelerator& accel) {
                                                     std::to_string(ref.geom) + ": block data differs");
                     }
                 }
+                if (WideNode::leaf_prims(count[i]) != prims)
+                    fail(r.wide_ok, "wide leaf's primitive count is not its blocks' filled lanes");
             }
         }
         if (visited != wide_count) fail(r.wide_ok, "wide nodes unreachable or shared");

@@ -448,12 +448,7 @@ double wide_sah_cost(const WideBvh& w) {
                 stack.push_back({n.child[i], a});
                 continue;
             }
-            // The blocks' filled lanes are the leaf's primitives.
-            const uint32_t first = n.child[i] & ~WideNode::kLeaf, nb = n.count[i] & WideNode::kBlockMask;
-            uint32_t prims = 0;
-            for (uint32_t b = first; b < first + nb; ++b)
-                for (uint32_t p : w.blocks[b].prim) prims += p != Block::kNone;
-            cost += a * CollapseCost::leaf(prims);
+            cost += a * CollapseCost::leaf(WideNode::leaf_prims(n.count[i]));
         }
     }
     return cost / root;

@@ -43,9 +43,13 @@ struct alignas(64) WideNode {
     static constexpr uint32_t kBlockMask = 0xFFFFu;     ///< in a leaf's count: its number of blocks
     static constexpr uint32_t kPrimShift = 16;          ///< in a leaf's count: where its primitives start
     static constexpr uint32_t kPrimMask = 0x7FFFu;      ///< the primitives, after the shift
+    /// A leaf lane's count, and its two fields back (the builders cap a leaf at 255
+    /// primitives, far inside either field; inspect_bvh checks the primitives).
     static uint32_t leaf_count(uint32_t blocks, uint32_t prims, bool spheres) {
         return blocks | prims << kPrimShift | (spheres ? kSpheres : 0u);
     }
+    static uint32_t leaf_blocks(uint32_t count) { return count & kBlockMask; }
+    static uint32_t leaf_prims(uint32_t count) { return (count >> kPrimShift) & kPrimMask; }
     static constexpr uint32_t kHintShift = 24;
     static constexpr uint32_t kHintBlocks = 1u << kHintShift;  ///< first block below this (64M triangles)
     static constexpr uint32_t kHintMaxBlocks = 32;             ///< 8 leaves of up to 16 primitives (sbvh)

@@ -635,11 +635,11 @@ TEST(BvhCollapse, PlanCostsLessThanTheGreedyCollapse) {
                     if (n.child[i] != WideNode::kEmpty && (n.child[i] & WideNode::kLeaf)) {
                         uint32_t prims = 0;
                         const uint32_t first = n.child[i] & ~WideNode::kLeaf;
-                        for (uint32_t b = first; b < first + (n.count[i] & WideNode::kBlockMask); ++b)
+                        for (uint32_t b = first; b < first + WideNode::leaf_blocks(n.count[i]); ++b)
                             for (uint32_t p : w.blocks[b].prim) prims += p != Block::kNone;
                         EXPECT_LE(prims, cap);
                         // The lane carries the count that counting traversal adds per leaf.
-                        EXPECT_EQ((n.count[i] >> WideNode::kPrimShift) & WideNode::kPrimMask, prims);
+                        EXPECT_EQ(WideNode::leaf_prims(n.count[i]), prims);
                     }
         }
 }
